@@ -1,0 +1,23 @@
+"""vesicle: spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow."""
+
+from importlib.metadata import PackageNotFoundError, version
+
+from .membrane import bending_energy, bending_force, membrane_force, tension_force
+from .sphere.grid import SphereGrid
+from .surface import Shape, ShapeError
+
+try:
+    __version__ = version("vesicle")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0+unknown"
+
+__all__ = [
+    "Shape",
+    "ShapeError",
+    "SphereGrid",
+    "__version__",
+    "bending_energy",
+    "bending_force",
+    "membrane_force",
+    "tension_force",
+]

@@ -1,0 +1,53 @@
+"""Command-line interface."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from vesicle.cli import main
+
+
+def run(*args):
+    return CliRunner().invoke(main, list(args))
+
+
+def test_shape_json():
+    r = run("shape", "--ellipsoid", "1.3", "0.9", "0.8", "--grid", "24", "--json")
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    for key in (
+        "area",
+        "volume",
+        "reduced_volume",
+        "excess_area",
+        "bending_energy",
+        "grid",
+        "degree",
+    ):
+        assert key in out
+    assert out["volume"] == pytest.approx(4 * np.pi * 1.3 * 0.9 * 0.8 / 3, rel=1e-9)
+    assert out["grid"] == [24, 48] and out["degree"] == 23
+
+
+def test_shape_table_and_spheroid():
+    r = run("shape", "--spheroid", "0.95", "--degree", "8")
+    assert r.exit_code == 0, r.output
+    assert "reduced volume v" in r.output and "bending energy" in r.output
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("shape", "--ellipsoid", "1", "-1", "1"),
+        ("shape", "--ellipsoid", "1", "nan", "1"),
+        ("shape", "--ellipsoid", "1", "1", "1", "--grid", "8", "--degree", "12"),
+        ("shape", "--spheroid", "1.2"),
+        ("shape",),
+    ],
+)
+def test_shape_bad_input_is_a_clear_error(args):
+    r = run(*args)
+    assert r.exit_code != 0
+    assert "Error" in r.output and "Traceback" not in r.output
