@@ -4,6 +4,7 @@ from importlib.metadata import PackageNotFoundError, version
 
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
 from .sphere.grid import SphereGrid
+from .stokes import LayerPotentials, double_layer, single_layer
 from .surface import Shape, ShapeError
 
 try:
@@ -12,12 +13,15 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
+    "LayerPotentials",
     "Shape",
     "ShapeError",
     "SphereGrid",
     "__version__",
     "bending_energy",
     "bending_force",
+    "double_layer",
     "membrane_force",
+    "single_layer",
     "tension_force",
 ]

@@ -28,6 +28,7 @@ def legendre_table(lmax: int, theta: np.ndarray, derivatives: int = 0) -> tuple[
     Returns
     -------
     tuple of ndarray, each of shape (n, lmax + 1, lmax + 1) indexed ``[i, m, l]``
+        (``P`` itself is a transposed view of an ``[m, l, i]``-contiguous array)
         ``P`` and, as requested, ``dP/dtheta`` and ``d^2P/dtheta^2``; zero where ``l < m``.
 
     Notes
@@ -41,18 +42,19 @@ def legendre_table(lmax: int, theta: np.ndarray, derivatives: int = 0) -> tuple[
     theta = np.asarray(theta, dtype=float).ravel()
     x, s = np.cos(theta), np.sin(theta)
     n, L = theta.size, lmax + 1
-    P = np.zeros((n, L, L))
+    Pml = np.zeros((L, L, n))  # computed as [m, l, i] so that each recurrence step is contiguous
     pmm = np.full(n, 1.0 / np.sqrt(2.0))
     for m in range(L):
         if m > 0:
             pmm = pmm * np.sqrt((2 * m + 1) / (2 * m)) * s
-        P[:, m, m] = pmm
+        Pml[m, m] = pmm
         if m + 1 < L:
-            P[:, m, m + 1] = np.sqrt(2 * m + 3) * x * pmm
+            Pml[m, m + 1] = np.sqrt(2 * m + 3) * x * pmm
         for l in range(m + 2, L):
             a = np.sqrt((4 * l * l - 1) / (l * l - m * m))
             b = np.sqrt(((l - 1) ** 2 - m * m) * (2 * l + 1) / ((2 * l - 3) * (l * l - m * m)))
-            P[:, m, l] = a * x * P[:, m, l - 1] - b * P[:, m, l - 2]
+            Pml[m, l] = a * x * Pml[m, l - 1] - b * Pml[m, l - 2]
+    P = Pml.transpose(2, 0, 1)
     if derivatives == 0:
         return (P,)
     if np.any(s <= 0.0):

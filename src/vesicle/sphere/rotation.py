@@ -63,7 +63,7 @@ def rotation_matrix(axis: str, angle: float) -> np.ndarray:
 def euler_zyz(R: np.ndarray) -> tuple[float, float, float]:
     """Angles ``(alpha, beta, gamma)`` with ``R = Rz(alpha) Ry(beta) Rz(gamma)``."""
     R = np.asarray(R, dtype=float)
-    beta = float(np.arccos(np.clip(R[2, 2], -1.0, 1.0)))
+    beta = float(np.arctan2(np.hypot(R[0, 2], R[1, 2]), R[2, 2]))  # arccos loses digits at 0, pi
     if abs(np.sin(beta)) > 1e-12:
         alpha = float(np.arctan2(R[1, 2], R[0, 2]))
         gamma = float(np.arctan2(R[2, 1], -R[2, 0]))
@@ -89,21 +89,23 @@ def y_rotation(beta: float, lmax: int) -> YRotation:
     grid = SphereGrid(lmax + 1)
     e_r = grid.unit_vectors[0].reshape(3, -1)
     z = rotation_matrix("y", beta) @ e_r
-    th_z = np.arccos(np.clip(z[2], -1.0, 1.0))
-    ph_z = np.arctan2(z[1], z[0])
+    th_z, ph_z = _angles(z)
     th, ph = (a.ravel() for a in grid.meshgrid())
-    (P,) = legendre_table(lmax, th)  # (q, m, l)
-    (Pz,) = legendre_table(lmax, th_z)
+    P = legendre_table(lmax, th)[0].transpose(1, 2, 0)  # (m, l, q), contiguous
+    Pz = legendre_table(lmax, th_z)[0].transpose(1, 2, 0)
     m = np.arange(lmax + 1)
-    wq = grid.weights.ravel()[:, None, None]
+    wq = grid.weights.ravel()
+    norm = np.where(m == 0, 2.0 * np.pi, np.pi)
+    w = np.where(m == 0, 1.0, 2.0)
     blocks = []
     for trig in (np.cos, np.sin):
-        basis = P * trig(np.outer(ph, m))[:, :, None] * wq  # weighted test functions
-        rotated = Pz * trig(np.outer(ph_z, m))[:, :, None]
-        # A[l, m', m] = sum_q basis[q, m', l] rotated[q, m, l]
-        A = np.matmul(basis.transpose(2, 1, 0), rotated.transpose(2, 0, 1))
-        norm = np.where(m == 0, 2.0 * np.pi, np.pi)
-        w = np.where(m == 0, 1.0, 2.0)
+        basis = P * (trig(np.outer(m, ph)) * wq)[:, None, :]  # weighted test functions
+        rotated = Pz * trig(np.outer(m, ph_z))[:, None, :]
+        # A[l, m', m] = sum_q basis[m', l, q] rotated[m, l, q]
+        A = np.matmul(
+            np.ascontiguousarray(basis.transpose(1, 0, 2)),
+            np.ascontiguousarray(rotated.transpose(1, 2, 0)),
+        )
         blocks.append(A / norm[None, :, None] * (w[None, None, :] / w[None, :, None]))
     plus, minus = blocks
     minus[:, 0, :] = 0.0
@@ -133,4 +135,10 @@ def rotated_angles(R: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> tuple[n
     """Spherical angles of ``R e_r(theta, phi)``."""
     e_r = spherical_basis(theta, phi)[0]
     z = np.einsum("ij,j...->i...", R, e_r)
-    return np.arccos(np.clip(z[2], -1.0, 1.0)), np.arctan2(z[1], z[0])
+    return _angles(z)
+
+
+def _angles(z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Polar and azimuthal angles of unit vectors (3, ...); ``arctan2`` keeps full precision
+    near the poles, where ``arccos`` would lose half the digits."""
+    return np.arctan2(np.hypot(z[0], z[1]), z[2]), np.arctan2(z[1], z[0])

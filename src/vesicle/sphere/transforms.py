@@ -163,20 +163,29 @@ def mode_energy(c: np.ndarray) -> np.ndarray:
     return a2[..., 0] + 2.0 * a2[..., 1:].sum(axis=-1)
 
 
-def evaluate(c: np.ndarray, theta: np.ndarray, phi: np.ndarray) -> np.ndarray:
-    """Evaluate the series at arbitrary points (``theta``, ``phi`` of equal shape).
+def evaluate(
+    c: np.ndarray, theta: np.ndarray, phi: np.ndarray, derivatives: bool = False
+) -> np.ndarray | tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Evaluate the series at arbitrary points (``theta``, ``phi`` of equal shape), directly.
 
-    Returns an array of shape ``(..., *theta.shape)`` for coefficients ``(..., l, m)``.
+    Returns an array of shape ``(..., *theta.shape)`` for coefficients ``(..., l, m)``; with
+    ``derivatives`` the tuple ``(f, df/dtheta, df/dphi)`` (needs ``0 < theta < pi``).
     """
     c = np.asarray(c)
     theta, phi = np.broadcast_arrays(np.asarray(theta, float), np.asarray(phi, float))
     lmax = c.shape[-1] - 1
-    (P,) = legendre_table(lmax, theta.ravel())  # (n, m, l)
-    F = np.einsum("nml,...lm->...nm", P, c)
+    tables = legendre_table(lmax, theta.ravel(), derivatives=int(derivatives))  # (n, m, l)
     m = np.arange(lmax + 1)
-    w = np.where(m == 0, 1.0, 2.0)
-    vals = np.real(np.einsum("...nm,nm->...n", F, w * np.exp(1j * np.outer(phi.ravel(), m))))
-    return vals.reshape(*c.shape[:-2], *theta.shape)
+    w = np.where(m == 0, 1.0, 2.0) * np.exp(1j * np.outer(phi.ravel(), m))  # (n, m)
+    out = []
+    for P in tables:
+        F = np.einsum("nml,...lm->...nm", P, c)
+        out.append(np.real(np.einsum("...nm,nm->...n", F, w)))
+        if len(out) == 1 and derivatives:
+            dphi = np.real(np.einsum("...nm,nm->...n", F, 1j * m * w))
+    if not derivatives:
+        return out[0].reshape(*c.shape[:-2], *theta.shape)
+    return tuple(v.reshape(*c.shape[:-2], *theta.shape) for v in (out[0], out[1], dphi))
 
 
 # ------------------------------------------------------------------ references

@@ -1,0 +1,16 @@
+"""Stokes kernels and layer potentials with spectrally accurate singular quadrature (SPEC §5)."""
+
+from .kernels import stokeslet, stresslet
+from .operators import METHODS, LayerPotentials, double_layer, single_layer
+from .quadrature import SingularQuadrature, singular_quadrature
+
+__all__ = [
+    "METHODS",
+    "LayerPotentials",
+    "SingularQuadrature",
+    "double_layer",
+    "single_layer",
+    "singular_quadrature",
+    "stokeslet",
+    "stresslet",
+]

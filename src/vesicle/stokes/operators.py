@@ -1,0 +1,282 @@
+"""Single- and double-layer Stokes potentials on a shape's grid (SPEC §5, §15).
+
+``N[psi](x0) = int G(x - x0) psi(x) dA`` and the principal-value
+``K[psi](x0) = int psi_i T_ijk(x - x0) n_k dA``, normalised without ``1/8 pi``.
+
+Two strategies share one definition (the rotated-grid quadrature of :mod:`.quadrature`):
+
+``"matrix-free"``
+    the geometry is rotated once per shape; each apply rotates the density to every target.
+``"assembled"``
+    each operator is assembled once per shape as a dense matrix from the density's
+    spherical-harmonic coefficients to the grid values (the adjoint of the rotation chain applied
+    to the weighted kernels); each apply is a transform and one matrix-vector product.
+
+The double layer uses singularity subtraction, ``K[u](x0) = int T n (u - u(x0)) dA - 4 pi u(x0)``,
+which relies on ``K[c] = -4 pi c`` on closed surfaces; the raw quadrature of that identity is
+available as :meth:`LayerPotentials.double_layer_of_constant` for tests.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+from concurrent.futures import ThreadPoolExecutor
+from functools import cached_property
+
+import numpy as np
+from scipy.sparse.linalg import LinearOperator
+from threadpoolctl import threadpool_limits
+
+from ..sphere.transforms import transform
+from ..surface import Shape
+from .quadrature import RingGeometry, SingularQuadrature, singular_quadrature
+
+__all__ = ["METHODS", "LayerPotentials", "double_layer", "single_layer"]
+
+log = logging.getLogger(__name__)
+
+METHODS = ("assembled", "matrix-free")
+
+#: Symmetric 3x3 kernel components stored once: (i, j) pairs with i <= j.
+_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+
+
+def _default_workers() -> int:
+    return max(1, min(2, os.cpu_count() or 1))
+
+
+class LayerPotentials:
+    """Layer potentials of one shape, built once and applied many times.
+
+    Parameters
+    ----------
+    shape : Shape
+        The surface; densities live on its grid.
+    n_rot : int, optional
+        ``theta'`` nodes of the rotated grid (``2 n_rot`` in ``phi'``); default ``n_theta``.
+    method : {"assembled", "matrix-free"}
+        See the module docstring; "assembled" is faster beyond a few applies per shape.
+    workers : int, optional
+        Threads over latitude rings (BLAS is held to one thread inside); default ``min(2, cpus)``.
+    """
+
+    def __init__(
+        self,
+        shape: Shape,
+        n_rot: int | None = None,
+        method: str = "assembled",
+        workers: int | None = None,
+    ):
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        self.shape = shape
+        self.method = method
+        self.quad: SingularQuadrature = singular_quadrature(shape.grid.n_theta, n_rot)
+        self.workers = _default_workers() if workers is None else int(workers)
+        self.timings: dict[str, float] = {}
+        n = self.quad.lmax + 1
+        self._tri = np.tril_indices(n)
+
+    # ------------------------------------------------------------ utilities
+    def _map_rings(self, fn) -> list:
+        rings = range(self.shape.grid.n_theta)
+        with threadpool_limits(limits=1, user_api="blas"):
+            if self.workers == 1:
+                return [fn(i) for i in rings]
+            with ThreadPoolExecutor(self.workers) as pool:
+                return list(pool.map(fn, rings))
+
+    def _timed(self, key: str, fn):
+        t = time.perf_counter()
+        out = fn()
+        self.timings[key] = self.timings.get(key, 0.0) + time.perf_counter() - t
+        return out
+
+    def _coefficients(self, density: np.ndarray) -> np.ndarray:
+        density = np.asarray(density, dtype=float)
+        if density.shape != (3, *self.shape.grid.shape):
+            raise ValueError(
+                f"density must have shape (3, {self.shape.grid.n_theta}, {self.shape.grid.n_phi}),"
+                f" got {density.shape}"
+            )
+        return transform(self.shape.grid.n_theta).analysis(density)
+
+    # ------------------------------------------------------------- geometry
+    @cached_property
+    def rings(self) -> list[RingGeometry]:
+        """The shape seen from every target's rotated grid, ring by ring."""
+        x = self.shape.x
+        c = self.shape.coefficients
+
+        def build(i: int) -> RingGeometry:
+            return self.quad.ring_geometry(i, c, x[:, i, :])
+
+        rings = self._timed("geometry", lambda: self._map_rings(build))
+        log.debug("rotated geometry for %d rings in %.3f s", len(rings), self.timings["geometry"])
+        return rings
+
+    # --------------------------------------------------------- matrix-free
+    def _single_ring(self, i: int, cf: np.ndarray) -> np.ndarray:
+        g = self.rings[i]
+        f = self.quad.values(i, cf).transpose(1, 0, 2)  # (3, Q, K)
+        inv_r = g.inv_r
+        xf = np.einsum("iqk,iqk->qk", g.xh, f)
+        return np.einsum("qk,iqk->ik", g.weight * inv_r, f) + np.einsum(
+            "qk,iqk->ik", g.weight * inv_r**3 * xf, g.xh
+        )
+
+    def _double_ring(self, i: int, cu: np.ndarray, u0: np.ndarray) -> np.ndarray:
+        g = self.rings[i]
+        du = self.quad.values(i, cu).transpose(1, 0, 2) - u0[:, None, :]
+        coef = self._stresslet_scalar(g) * np.einsum("iqk,iqk->qk", g.xh, du)
+        return np.einsum("qk,iqk->ik", coef, g.xh) - 4.0 * np.pi * u0
+
+    @staticmethod
+    def _stresslet_scalar(g: RingGeometry) -> np.ndarray:
+        """``-6 (xh . n) w J / r^5``: T_ijk n_k w J = this * xh_i xh_j."""
+        return -6.0 * np.einsum("iqk,iqk->qk", g.xh, g.normal_weighted) * g.inv_r**5
+
+    # ----------------------------------------------------------- assembly
+    def _assemble_ring(self, i: int, kind: str) -> tuple[np.ndarray, np.ndarray | None]:
+        g = self.rings[i]
+        if kind == "single":
+            inv_r = g.inv_r
+            scal, diag = g.weight * inv_r**3, g.weight * inv_r
+        else:
+            scal, diag = self._stresslet_scalar(g), None
+        comps = np.empty((g.xh.shape[1], len(_PAIRS), g.xh.shape[2]))  # (Q, 6, K)
+        for p, (a, b) in enumerate(_PAIRS):
+            comps[:, p] = scal * g.xh[a] * g.xh[b]
+            if diag is not None and a == b:
+                comps[:, p] += diag
+        rows = self.quad.pull_back(i, comps)  # (6, K, l, m)
+        rows = rows[:, :, self._tri[0], self._tri[1]]
+        block = np.zeros((3, rows.shape[1], 3, 2, rows.shape[-1]))
+        for p, (a, b) in enumerate(_PAIRS):
+            for s, t in ((a, b), (b, a)):
+                block[s, :, t, 0] = rows[p].real
+                block[s, :, t, 1] = rows[p].imag
+        sums = None
+        if kind == "double":  # subtraction: -(sum_q T n w J) u0 - 4 pi u0
+            sums = -np.einsum("qk,iqk,jqk->kij", scal, g.xh, g.xh) - 4.0 * np.pi * np.eye(3)
+        return block.reshape(3, rows.shape[1], -1), sums
+
+    def _assemble(self, kind: str) -> tuple[np.ndarray, np.ndarray | None]:
+        def build(i):
+            return self._assemble_ring(i, kind)
+
+        parts = self._timed(f"assemble_{kind}", lambda: self._map_rings(build))
+        nt, nphi = self.shape.grid.shape
+        A = np.stack([p[0] for p in parts], axis=1).reshape(3 * nt * nphi, -1)
+        diag = None if parts[0][1] is None else np.stack([p[1] for p in parts])  # (i, k, 3, 3)
+        log.debug(
+            "assembled %s layer (%d x %d) in %.3f s",
+            kind,
+            *A.shape,
+            self.timings[f"assemble_{kind}"],
+        )
+        return A, diag
+
+    @cached_property
+    def single_matrix(self) -> np.ndarray:
+        """Dense single layer: real coefficient vector (see :meth:`coefficient_vector`) -> grid."""
+        return self._assemble("single")[0]
+
+    @cached_property
+    def _double_parts(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._assemble("double")
+
+    def coefficient_vector(self, density: np.ndarray) -> np.ndarray:
+        """``[Re c_j, Im c_j]`` of the lower-triangular coefficients of each component ``j``."""
+        c = self._coefficients(density)[:, self._tri[0], self._tri[1]]
+        return np.stack([c.real, c.imag], axis=1).ravel()
+
+    # -------------------------------------------------------------- applies
+    def single_layer(self, f: np.ndarray) -> np.ndarray:
+        """``N[f]`` at every grid point, shape (3, n_theta, n_phi)."""
+        grid_shape = (3, *self.shape.grid.shape)
+        if self.method == "assembled":
+            vec = self.coefficient_vector(f)
+            return self._timed("apply_single", lambda: self.single_matrix @ vec).reshape(grid_shape)
+        cf = self._coefficients(f)
+        out = self._timed(
+            "apply_single", lambda: self._map_rings(lambda i: self._single_ring(i, cf))
+        )
+        return np.stack(out, axis=1)
+
+    def double_layer(self, u: np.ndarray) -> np.ndarray:
+        """Principal-value ``K[u]`` at every grid point, shape (3, n_theta, n_phi)."""
+        u = np.asarray(u, dtype=float)
+        grid_shape = (3, *self.shape.grid.shape)
+        if self.method == "assembled":
+            vec = self.coefficient_vector(u)
+            A, diag = self._double_parts
+
+            def apply():
+                return (A @ vec).reshape(grid_shape) + np.einsum("ikab,bik->aik", diag, u)
+
+            return self._timed("apply_double", apply)
+        cu = self._coefficients(u)
+        out = self._timed(
+            "apply_double", lambda: self._map_rings(lambda i: self._double_ring(i, cu, u[:, i, :]))
+        )
+        return np.stack(out, axis=1)
+
+    def double_layer_of_constant(self, c: np.ndarray) -> np.ndarray:
+        """Raw (unsubtracted) quadrature of ``K[c]`` for a constant ``c``; exact: ``-4 pi c``."""
+        c = np.asarray(c, dtype=float)
+
+        def ring(i):
+            g = self.rings[i]
+            coef = self._stresslet_scalar(g) * np.einsum("iqk,i->qk", g.xh, c)
+            return np.einsum("qk,iqk->ik", coef, g.xh)
+
+        return np.stack(self._map_rings(ring), axis=1)
+
+    def single_layer_of_normal(self) -> np.ndarray:
+        """``N[n]`` with the normal taken exactly at the rotated nodes; exact value 0.
+
+        Unlike ``single_layer(shape.normal)`` this does not interpolate a grid-sampled normal, so
+        it measures the quadrature alone.
+        """
+
+        def ring(i):
+            g = self.rings[i]
+            inv_r = g.inv_r
+            n_w = g.normal_weighted  # w J n
+            xn = np.einsum("iqk,iqk->qk", g.xh, n_w)
+            return np.einsum("qk,iqk->ik", inv_r, n_w) + np.einsum(
+                "qk,iqk->ik", inv_r**3 * xn, g.xh
+            )
+
+        return np.stack(self._map_rings(ring), axis=1)
+
+    # ------------------------------------------------------ linear operators
+    def _operator(self, apply) -> LinearOperator:
+        n = 3 * self.shape.grid.n_theta * self.shape.grid.n_phi
+        shape = (3, *self.shape.grid.shape)
+        return LinearOperator(
+            (n, n), matvec=lambda v: apply(v.reshape(shape)).ravel(), dtype=np.float64
+        )
+
+    def single_operator(self) -> LinearOperator:
+        """``N`` as a :class:`scipy.sparse.linalg.LinearOperator` on flattened (3, nt, np)."""
+        return self._operator(self.single_layer)
+
+    def double_operator(self) -> LinearOperator:
+        """``K`` as a :class:`scipy.sparse.linalg.LinearOperator` on flattened fields."""
+        return self._operator(self.double_layer)
+
+
+def single_layer(shape: Shape, f: np.ndarray, **options) -> np.ndarray:
+    """``N[f]`` on the shape's grid (no ``1/8 pi``); ``options`` go to :class:`LayerPotentials`."""
+    options.setdefault("method", "matrix-free")  # one apply: no assembly
+    return LayerPotentials(shape, **options).single_layer(f)
+
+
+def double_layer(shape: Shape, u: np.ndarray, **options) -> np.ndarray:
+    """Principal-value ``K[u]`` on the shape's grid (no ``1/8 pi``)."""
+    options.setdefault("method", "matrix-free")
+    return LayerPotentials(shape, **options).double_layer(u)
