@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from common import best_time, dgemm_rate
 from vesicle.sphere.transforms import transform
+
+from common import best_time, dgemm_rate
 
 
 def run() -> dict:

@@ -206,3 +206,13 @@ def test_rotate_coefficients_rejects_non_rotations():
         rotate_coefficients(np.zeros((3, 3), complex), np.diag([1.0, 1.0, -1.0]))
     with pytest.raises(ValueError, match="rotation"):
         rotate_coefficients(np.zeros((3, 3), complex), np.ones((3, 3)))
+
+
+@pytest.mark.parametrize("lmax", [6, 23])
+def test_fast_y_rotation_equals_quadrature_reference(lmax):
+    from vesicle.sphere.rotation import y_rotation_quadrature
+
+    for beta in (0.2, 1.3, 2.8, -0.9):
+        fast, ref = y_rotation(beta, lmax), y_rotation_quadrature(beta, lmax)
+        np.testing.assert_allclose(fast.plus, ref.plus, atol=1e-13)
+        np.testing.assert_allclose(fast.minus, ref.minus, atol=1e-13)

@@ -15,6 +15,7 @@ the degree-``2 lmax`` products involved.
 
 from __future__ import annotations
 
+from functools import cache
 from typing import NamedTuple
 
 import numpy as np
@@ -30,6 +31,7 @@ __all__ = [
     "rotated_angles",
     "rotation_matrix",
     "y_rotation",
+    "y_rotation_quadrature",
 ]
 
 
@@ -84,8 +86,12 @@ def rotate_z(c: np.ndarray, alpha: float | np.ndarray) -> np.ndarray:
     return c * np.exp(1j * m * np.asarray(alpha)[..., None, None])
 
 
-def y_rotation(beta: float, lmax: int) -> YRotation:
-    """Wigner blocks for the pull-back by ``Ry(beta)`` up to degree ``lmax``."""
+def y_rotation_quadrature(beta: float, lmax: int) -> YRotation:
+    """Wigner blocks for the pull-back by ``Ry(beta)``, by exact quadrature (O(lmax^4)).
+
+    The basis functions are evaluated at rotated Gauss–Legendre points and projected back onto
+    each degree; the quadrature is exact for the degree-``2 lmax`` products involved.
+    """
     grid = SphereGrid(lmax + 1)
     e_r = grid.unit_vectors[0].reshape(3, -1)
     z = rotation_matrix("y", beta) @ e_r
@@ -108,6 +114,62 @@ def y_rotation(beta: float, lmax: int) -> YRotation:
         )
         blocks.append(A / norm[None, :, None] * (w[None, None, :] / w[None, :, None]))
     plus, minus = blocks
+    minus[:, 0, :] = 0.0
+    minus[:, :, 0] = 0.0
+    return YRotation(plus, minus)
+
+
+@cache
+def _quarter_turns(lmax: int) -> tuple[np.ndarray, np.ndarray]:
+    """Fixed factors of ``Ry(beta) = M^T Rz(beta) M``, ``M = Rz(-pi/2) Ry(pi/2) Rz(pi/2)``.
+
+    As real operators on ``[Re c_l; Im c_l]`` (shape (l, 2(L+1), 2(L+1))), the pull-back by
+    ``Ry(beta)`` is ``A Z(beta) B`` with ``B = Y(-pi/2) Z(-pi/2)``, ``A = Z(pi/2) Y(pi/2)``
+    (operators applied right to left), ``Z`` the z-phases and ``Y`` quadrature Wigner blocks.
+    """
+    n = lmax + 1
+    half = np.pi / 2
+
+    def y_op(beta):
+        b = y_rotation_quadrature(beta, lmax)
+        op = np.zeros((n, 2 * n, 2 * n))
+        op[:, :n, :n], op[:, n:, n:] = b.plus, b.minus
+        return op
+
+    A = np.matmul(_z_op(half, n), y_op(half))
+    B = np.matmul(y_op(-half), _z_op(-half, n))
+    return A, B
+
+
+def _z_op(alpha: float, n: int) -> np.ndarray:
+    """``c -> c e^{i m alpha}`` on ``[Re; Im]``, as (1, 2n, 2n)."""
+    m = np.arange(n)
+    C, S = np.diag(np.cos(m * alpha)), np.diag(np.sin(m * alpha))
+    return np.block([[C, -S], [S, C]])[None]
+
+
+def y_rotation(beta: float, lmax: int) -> YRotation:
+    """Wigner blocks for the pull-back by ``Ry(beta)`` up to degree ``lmax`` (O(lmax^4)).
+
+    Uses ``Ry(beta) = M^T Rz(beta) M`` with fixed quarter-turn factors computed once per degree
+    by exact quadrature (:func:`y_rotation_quadrature`, the reference), so each new angle costs
+    one batched product of ``2(L+1)``-square matrices per degree.
+    """
+    n = lmax + 1
+    A, B = _quarter_turns(lmax)
+    m = np.arange(n)
+    c, s = np.cos(m * beta), np.sin(m * beta)
+    zb = np.concatenate(
+        [
+            c[:, None] * B[:, :n] - s[:, None] * B[:, n:],
+            s[:, None] * B[:, :n] + c[:, None] * B[:, n:],
+        ],
+        axis=1,
+    )
+    op = np.matmul(A, zb)
+    l_idx = np.arange(n)
+    mask = (m[None, :] <= l_idx[:, None])[:, :, None] & (m[None, :] <= l_idx[:, None])[:, None, :]
+    plus, minus = op[:, :n, :n] * mask, op[:, n:, n:] * mask
     minus[:, 0, :] = 0.0
     minus[:, :, 0] = 0.0
     return YRotation(plus, minus)

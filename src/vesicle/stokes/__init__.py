@@ -1,5 +1,6 @@
 """Stokes kernels and layer potentials with spectrally accurate singular quadrature (SPEC §5)."""
 
+from .evaluation import evaluate_double_layer, evaluate_single_layer
 from .kernels import stokeslet, stresslet
 from .operators import METHODS, LayerPotentials, double_layer, single_layer
 from .quadrature import SingularQuadrature, singular_quadrature
@@ -9,6 +10,8 @@ __all__ = [
     "LayerPotentials",
     "SingularQuadrature",
     "double_layer",
+    "evaluate_double_layer",
+    "evaluate_single_layer",
     "single_layer",
     "singular_quadrature",
     "stokeslet",

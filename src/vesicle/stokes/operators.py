@@ -76,8 +76,7 @@ class LayerPotentials:
         self.quad: SingularQuadrature = singular_quadrature(shape.grid.n_theta, n_rot)
         self.workers = _default_workers() if workers is None else int(workers)
         self.timings: dict[str, float] = {}
-        n = self.quad.lmax + 1
-        self._tri = np.tril_indices(n)
+        self._tri = self.quad.packed
 
     # ------------------------------------------------------------ utilities
     def _map_rings(self, fn) -> list:
@@ -104,16 +103,19 @@ class LayerPotentials:
         return transform(self.shape.grid.n_theta).analysis(density)
 
     # ------------------------------------------------------------- geometry
+    def ring_geometry(self, i: int) -> RingGeometry:
+        """The shape seen from the rotated grids of ring ``i``'s targets (stored if cached)."""
+        if "rings" in self.__dict__:
+            return self.rings[i]
+        return self.quad.ring_geometry(i, self.shape.coefficients, self.shape.x[:, i, :])
+
     @cached_property
     def rings(self) -> list[RingGeometry]:
-        """The shape seen from every target's rotated grid, ring by ring."""
-        x = self.shape.x
-        c = self.shape.coefficients
-
-        def build(i: int) -> RingGeometry:
-            return self.quad.ring_geometry(i, c, x[:, i, :])
-
-        rings = self._timed("geometry", lambda: self._map_rings(build))
+        """Rotated geometry of every ring, kept for repeated matrix-free applies."""
+        x, c = self.shape.x, self.shape.coefficients
+        rings = self._timed(
+            "geometry", lambda: self._map_rings(lambda i: self.quad.ring_geometry(i, c, x[:, i]))
+        )
         log.debug("rotated geometry for %d rings in %.3f s", len(rings), self.timings["geometry"])
         return rings
 
@@ -130,63 +132,65 @@ class LayerPotentials:
     def _double_ring(self, i: int, cu: np.ndarray, u0: np.ndarray) -> np.ndarray:
         g = self.rings[i]
         du = self.quad.values(i, cu).transpose(1, 0, 2) - u0[:, None, :]
-        coef = self._stresslet_scalar(g) * np.einsum("iqk,iqk->qk", g.xh, du)
+        coef = _stresslet_scalar(g) * np.einsum("iqk,iqk->qk", g.xh, du)
         return np.einsum("qk,iqk->ik", coef, g.xh) - 4.0 * np.pi * u0
 
-    @staticmethod
-    def _stresslet_scalar(g: RingGeometry) -> np.ndarray:
-        """``-6 (xh . n) w J / r^5``: T_ijk n_k w J = this * xh_i xh_j."""
-        return -6.0 * np.einsum("iqk,iqk->qk", g.xh, g.normal_weighted) * g.inv_r**5
-
     # ----------------------------------------------------------- assembly
-    def _assemble_ring(self, i: int, kind: str) -> tuple[np.ndarray, np.ndarray | None]:
-        g = self.rings[i]
-        if kind == "single":
-            inv_r = g.inv_r
-            scal, diag = g.weight * inv_r**3, g.weight * inv_r
-        else:
-            scal, diag = self._stresslet_scalar(g), None
-        comps = np.empty((g.xh.shape[1], len(_PAIRS), g.xh.shape[2]))  # (Q, 6, K)
+    def _assemble_ring(self, i: int, out: dict[str, np.ndarray]) -> None:
+        """Rows of ring ``i`` of both operators, written into the preallocated ``out``."""
+        g = self.ring_geometry(i)
+        inv_r = g.inv_r
+        scal = {"single": g.weight * inv_r**3, "double": _stresslet_scalar(g)}
+        diag = g.weight * inv_r
+        comps = np.empty((g.xh.shape[1], 2 * len(_PAIRS), g.xh.shape[2]))  # (Q, 12, K)
         for p, (a, b) in enumerate(_PAIRS):
-            comps[:, p] = scal * g.xh[a] * g.xh[b]
-            if diag is not None and a == b:
+            xx = g.xh[a] * g.xh[b]
+            comps[:, p] = scal["single"] * xx
+            comps[:, p + len(_PAIRS)] = scal["double"] * xx
+            if a == b:
                 comps[:, p] += diag
-        rows = self.quad.pull_back(i, comps)  # (6, K, l, m)
-        rows = rows[:, :, self._tri[0], self._tri[1]]
-        block = np.zeros((3, rows.shape[1], 3, 2, rows.shape[-1]))
-        for p, (a, b) in enumerate(_PAIRS):
-            for s, t in ((a, b), (b, a)):
-                block[s, :, t, 0] = rows[p].real
-                block[s, :, t, 1] = rows[p].imag
-        sums = None
-        if kind == "double":  # subtraction: -(sum_q T n w J) u0 - 4 pi u0
-            sums = -np.einsum("qk,iqk,jqk->kij", scal, g.xh, g.xh) - 4.0 * np.pi * np.eye(3)
-        return block.reshape(3, rows.shape[1], -1), sums
-
-    def _assemble(self, kind: str) -> tuple[np.ndarray, np.ndarray | None]:
-        def build(i):
-            return self._assemble_ring(i, kind)
-
-        parts = self._timed(f"assemble_{kind}", lambda: self._map_rings(build))
-        nt, nphi = self.shape.grid.shape
-        A = np.stack([p[0] for p in parts], axis=1).reshape(3 * nt * nphi, -1)
-        diag = None if parts[0][1] is None else np.stack([p[1] for p in parts])  # (i, k, 3, 3)
-        log.debug(
-            "assembled %s layer (%d x %d) in %.3f s",
-            kind,
-            *A.shape,
-            self.timings[f"assemble_{kind}"],
-        )
-        return A, diag
+        rows = self.quad.pull_back(i, comps)  # (2, ntri, 12, K)
+        for offset, kind in ((0, "single"), (len(_PAIRS), "double")):
+            block = out[kind][:, :, :, :, i]  # transposed: (3 [density], 2, ntri, 3 [out], K)
+            for p, (a, b) in enumerate(_PAIRS):
+                block[b, :, :, a] = rows[:, :, p + offset]
+                block[a, :, :, b] = rows[:, :, p + offset]
+        # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
+        out["double_diagonal"][i] = -np.einsum(
+            "qk,iqk,jqk->kij", scal["double"], g.xh, g.xh
+        ) - 4.0 * np.pi * np.eye(3)
 
     @cached_property
+    def _matrices(self) -> dict[str, np.ndarray]:
+        nt, nphi = self.shape.grid.shape
+        ntri = self._tri[0].size
+        # Stored transposed, (columns, rows), so that each ring writes contiguous target runs;
+        # the apply multiplies by the transpose (BLAS reads it as a row-major matrix).
+        out = {
+            "single": np.empty((3, 2, ntri, 3, nt, nphi)),
+            "double": np.empty((3, 2, ntri, 3, nt, nphi)),
+            "double_diagonal": np.empty((nt, nphi, 3, 3)),
+        }
+        self._timed("assembly", lambda: self._map_rings(lambda i: self._assemble_ring(i, out)))
+        log.debug(
+            "assembled single and double layers (%d x %d each) in %.3f s",
+            3 * nt * nphi,
+            6 * ntri,
+            self.timings["assembly"],
+        )
+        for kind in ("single", "double"):
+            out[kind] = out[kind].reshape(6 * ntri, 3 * nt * nphi).T
+        return out
+
+    @property
     def single_matrix(self) -> np.ndarray:
         """Dense single layer: real coefficient vector (see :meth:`coefficient_vector`) -> grid."""
-        return self._assemble("single")[0]
+        return self._matrices["single"]
 
-    @cached_property
-    def _double_parts(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._assemble("double")
+    @property
+    def double_matrix(self) -> tuple[np.ndarray, np.ndarray]:
+        """Dense double layer: the coefficient-space matrix and the (nt, np, 3, 3) diagonal."""
+        return self._matrices["double"], self._matrices["double_diagonal"]
 
     def coefficient_vector(self, density: np.ndarray) -> np.ndarray:
         """``[Re c_j, Im c_j]`` of the lower-triangular coefficients of each component ``j``."""
@@ -212,7 +216,7 @@ class LayerPotentials:
         grid_shape = (3, *self.shape.grid.shape)
         if self.method == "assembled":
             vec = self.coefficient_vector(u)
-            A, diag = self._double_parts
+            A, diag = self.double_matrix
 
             def apply():
                 return (A @ vec).reshape(grid_shape) + np.einsum("ikab,bik->aik", diag, u)
@@ -229,8 +233,8 @@ class LayerPotentials:
         c = np.asarray(c, dtype=float)
 
         def ring(i):
-            g = self.rings[i]
-            coef = self._stresslet_scalar(g) * np.einsum("iqk,i->qk", g.xh, c)
+            g = self.ring_geometry(i)
+            coef = _stresslet_scalar(g) * np.einsum("iqk,i->qk", g.xh, c)
             return np.einsum("qk,iqk->ik", coef, g.xh)
 
         return np.stack(self._map_rings(ring), axis=1)
@@ -243,7 +247,7 @@ class LayerPotentials:
         """
 
         def ring(i):
-            g = self.rings[i]
+            g = self.ring_geometry(i)
             inv_r = g.inv_r
             n_w = g.normal_weighted  # w J n
             xn = np.einsum("iqk,iqk->qk", g.xh, n_w)
@@ -268,6 +272,11 @@ class LayerPotentials:
     def double_operator(self) -> LinearOperator:
         """``K`` as a :class:`scipy.sparse.linalg.LinearOperator` on flattened fields."""
         return self._operator(self.double_layer)
+
+
+def _stresslet_scalar(g: RingGeometry) -> np.ndarray:
+    """``-6 (xh . n) w J / r^5``, so that ``T_ijk n_k w J = this * xh_i xh_j``."""
+    return -6.0 * np.einsum("iqk,iqk->qk", g.xh, g.normal_weighted) * g.inv_r**5
 
 
 def single_layer(shape: Shape, f: np.ndarray, **options) -> np.ndarray:

@@ -17,7 +17,6 @@ rotated nodes into rows of the layer-potential operators in coefficient space (a
 
 from __future__ import annotations
 
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import cache, cached_property
 
@@ -84,17 +83,35 @@ class SingularQuadrature:
 
     # ------------------------------------------------------------------ tables
     @cached_property
-    def wigner(self) -> tuple[np.ndarray, np.ndarray]:
-        """Real Wigner blocks for each ring, each (n_theta, L+1, L+1, L+1) ``[i, l, m', m]``."""
-        with ThreadPoolExecutor(2) as pool:
-            blocks = list(pool.map(lambda b: y_rotation(b, self.lmax), self.grid.theta))
-        return np.stack([b.plus for b in blocks]), np.stack([b.minus for b in blocks])
+    def wigner(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Real Wigner blocks per ring, (n_theta, L+1, L+1, L+1) ``[i, l, m', m]``.
+
+        ``(plus, minus, plus^T, minus^T)``: the transposes (``[i, l, m, m']``) are stored
+        contiguously for the adjoint.
+        """
+        blocks = [y_rotation(beta, self.lmax) for beta in self.grid.theta]
+        plus = np.stack([b.plus for b in blocks])
+        minus = np.stack([b.minus for b in blocks])
+        return plus, minus, plus.transpose(0, 1, 3, 2).copy(), minus.transpose(0, 1, 3, 2).copy()
 
     @cached_property
     def legendre_rot(self) -> tuple[np.ndarray, np.ndarray]:
         """``Pbar`` and ``dPbar/dtheta`` at the rotated ``theta'``, each (m, a, l)."""
         P, dP = legendre_table(self.lmax, self.theta_rot, derivatives=1)
         return P.transpose(1, 0, 2).copy(), dP.transpose(1, 0, 2).copy()
+
+    @cached_property
+    def _legendre_adjoint(self) -> np.ndarray:
+        """``w_m Pbar_lm(theta'_a)`` as (m, l, a), ``w_0 = 1``, else 2: adjoint of synthesis."""
+        P = self.legendre_rot[0].transpose(0, 2, 1)
+        return np.ascontiguousarray(
+            P * np.where(np.arange(self.lmax + 1) == 0, 1.0, 2.0)[:, None, None]
+        )
+
+    @property
+    def _real_fft(self) -> bool:
+        """Whether all orders fit below the rotated grid's Nyquist (then real FFTs suffice)."""
+        return self.lmax < self.n_rot
 
     @cached_property
     def basis_rot(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -106,18 +123,22 @@ class SingularQuadrature:
         Ry = rotation_matrix("y", self.grid.theta[i])
         return np.stack([rotation_matrix("z", p) @ Ry for p in self.grid.phi])
 
+    @cached_property
+    def _phases(self) -> np.ndarray:
+        """``e^{i m phi_k}``, (m, K)."""
+        return np.exp(1j * np.outer(np.arange(self.lmax + 1), self.grid.phi))
+
     # ------------------------------------------------------- forward (values)
-    def phase(self, c: np.ndarray) -> np.ndarray:
-        """Coefficients (b, l, m) -> (l, m, b*K) for the K targets of a ring (z-rotation)."""
-        m = np.arange(c.shape[-1])
-        e = np.exp(1j * np.outer(m, self.grid.phi))  # (m, K)
-        out = c.transpose(1, 2, 0)[..., None] * e[None, :, None, :]
+    def phase(self, c: np.ndarray, targets: slice = slice(None)) -> np.ndarray:
+        """Coefficients (b, l, m) -> (l, m, b*K) for K targets of a ring (z-rotation)."""
+        n = c.shape[-1]
+        out = c.transpose(1, 2, 0)[..., None] * self._phases[None, :n, None, targets]
         return out.reshape(*out.shape[:2], -1)
 
     def rotate(self, i: int, c: np.ndarray, degree: int | None = None) -> np.ndarray:
         """Y-rotate coefficients (l, m, B) by ring ``i``'s polar angle, up to ``degree``."""
         n = (self.lmax if degree is None else degree) + 1
-        plus, minus = self.wigner
+        plus, minus = self.wigner[:2]
         c = c[:n, :n]
         re = np.matmul(plus[i, :n, :n, :n], np.ascontiguousarray(c.real))  # (l, m', B)
         im = np.matmul(minus[i, :n, :n, :n], np.ascontiguousarray(c.imag))
@@ -143,64 +164,95 @@ class SingularQuadrature:
 
         Orders beyond the rotated grid's Nyquist alias onto its bins (exact at the nodes).
         """
-        n = F.shape[0]
+        n, nphi = F.shape[0], self.n_rot_phi
+        if n <= nphi // 2:  # real inverse FFT; c2r doubles the orders 0 < m < Nyquist itself
+            G = np.zeros((nphi // 2 + 1, *F.shape[1:]), dtype=np.complex128)
+            G[:n] = F
+            vals = ducc0.fft.c2r(G, axes=(0,), lastsize=nphi, forward=False, inorm=0)
+            return vals.reshape(self.n_nodes, -1)
         w = np.where(np.arange(n) == 0, 1.0, 2.0)[:, None, None]
-        G = np.zeros((self.n_rot_phi, *F.shape[1:]), dtype=np.complex128)
-        for start in range(0, n, self.n_rot_phi):
-            chunk = w[start : start + self.n_rot_phi] * F[start : start + self.n_rot_phi]
+        G = np.zeros((nphi, *F.shape[1:]), dtype=np.complex128)
+        for start in range(0, n, nphi):
+            chunk = w[start : start + nphi] * F[start : start + nphi]
             G[: len(chunk)] += chunk
         vals = ducc0.fft.c2c(G, axes=(0,), forward=False, inorm=0, out=G).real
         return vals.reshape(self.n_nodes, -1)
 
-    def values(self, i: int, c: np.ndarray) -> np.ndarray:
+    def values(self, i: int, c: np.ndarray, targets: slice = slice(None)) -> np.ndarray:
         """Fields with coefficients (b, l, m) at the rotated nodes of ring ``i``: (Q, b, K)."""
-        vals = self.synthesize(self.rotate(i, self.phase(c)))
-        return vals.reshape(self.n_nodes, c.shape[0], self.grid.n_phi)
+        vals = self.synthesize(self.rotate(i, self.phase(c, targets)))
+        return vals.reshape(self.n_nodes, c.shape[0], -1)
 
     # --------------------------------------------------------- adjoint (rows)
-    def pull_back(self, i: int, v: np.ndarray) -> np.ndarray:
-        """Adjoint of :meth:`values`, one field per target: weights (Q, b, K) -> rows (b, K, l, m).
+    def pull_back(self, i: int, v: np.ndarray, targets: slice = slice(None)) -> np.ndarray:
+        """Adjoint of :meth:`values`, one field per target: weights (Q, b, K) -> rows (2, T, b, K).
 
-        For weights ``v`` at the rotated nodes of target ``k`` it returns the complex row ``q``
-        with ``sum_nodes v * f(node) = Re sum_lm conj(q_lm) c_lm`` for every field ``f`` with
-        coefficients ``c`` (``Re``/``Im`` parts of ``c`` paired with those of ``q``).
+        For weights ``v`` at the rotated nodes of target ``k`` it returns the real row ``q`` with
+        ``sum_nodes v * f(node) = sum_t q[0, t] Re c_t + q[1, t] Im c_t`` for every field ``f``
+        with coefficients ``c``, ``t`` running over the packed lower triangle ``l >= m``
+        (:attr:`packed`).
         """
         _, b, k = v.shape
         n = self.lmax + 1
-        vals = v.reshape(self.n_rot_phi, self.n_rot, b * k).astype(np.complex128)
-        G = ducc0.fft.c2c(vals, axes=(0,), forward=True, inorm=0, out=vals)
-        w = np.where(np.arange(n) == 0, 1.0, 2.0)[:, None, None]
-        F = w * G[np.arange(n) % self.n_rot_phi]  # (m, a, B)
-        P, _ = self.legendre_rot
-        c = _real_matmul(np.ascontiguousarray(P.transpose(0, 2, 1)), F)  # (m, l, B)
+        vals = v.reshape(self.n_rot_phi, self.n_rot, b * k)
+        if n <= self.n_rot_phi // 2 + 1:
+            F = ducc0.fft.r2c(vals, axes=(0,), forward=True, inorm=0)[:n]  # (m, a, B)
+        else:
+            G = ducc0.fft.c2c(vals.astype(np.complex128), axes=(0,), forward=True, inorm=0)
+            F = G[np.arange(n) % self.n_rot_phi]
+        c = _real_matmul(self._legendre_adjoint, F)  # (m, l, B), w_m included
         c = c.transpose(1, 0, 2)  # (l, m', B)
-        plus, minus = self.wigner
-        re = np.matmul(plus[i].transpose(0, 2, 1), np.ascontiguousarray(c.real))  # (l, m, B)
-        im = np.matmul(minus[i].transpose(0, 2, 1), np.ascontiguousarray(c.imag))
-        q = (re + 1j * im).reshape(n, n, b, k)
-        e = np.exp(-1j * np.outer(np.arange(n), self.grid.phi))  # (m, K)
-        return (q * e[None, :, None, :]).transpose(2, 3, 0, 1)
+        plusT, minusT = self.wigner[2:]
+        re = np.matmul(plusT[i], np.ascontiguousarray(c.real))  # (l, m, B)
+        im = np.matmul(minusT[i], np.ascontiguousarray(c.imag))
+        li, mi = self.packed
+        re = re[li, mi].reshape(-1, b, k)
+        im = im[li, mi].reshape(-1, b, k)
+        # adjoint of the z-phase e^{i m phi_k}: rotate (Re, Im) pairs by -m phi_k
+        cos, sin = self._phase_parts
+        cos, sin = cos[:, None, targets], sin[:, None, targets]
+        return np.stack([re * cos + im * sin, im * cos - re * sin])
+
+    @cached_property
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(l, m)`` indices of the packed lower triangle ``m <= l`` (row-major in ``l``)."""
+        return np.tril_indices(self.lmax + 1)
+
+    @cached_property
+    def _phase_parts(self) -> tuple[np.ndarray, np.ndarray]:
+        """``cos(m phi_k)``, ``sin(m phi_k)`` on the packed triangle, each (T, K)."""
+        angles = np.outer(self.packed[1], self.grid.phi)
+        return np.cos(angles), np.sin(angles)
 
     # --------------------------------------------------------------- geometry
     def ring_geometry(
-        self, i: int, radius_coefficients: np.ndarray, x0: np.ndarray
+        self, i: int, radius_coefficients: np.ndarray, x0: np.ndarray, targets: slice = slice(None)
     ) -> RingGeometry:
-        """Rotated geometry of a radius series for the targets ``x0`` (3, K) of ring ``i``."""
+        """Rotated geometry of a radius series for the ``targets`` of ring ``i`` at ``x0`` (3, K).
+
+        With ``x = r e_r`` the weighted normal is ``J n = r^2 e_r - r grad_1 r`` (``grad_1`` the
+        gradient on the unit sphere), evaluated in the rotated frame and turned to the lab frame
+        by ``R_ik = Rz(phi_k) Ry(theta_i)``: the ``Ry`` part is shared by the ring, the ``Rz`` part
+        is a cheap per-target rotation of the x, y components.
+        """
         degree = radius_coefficients.shape[-1] - 1
         if degree > self.lmax:
             raise ValueError(f"shape degree {degree} exceeds the grid's {self.lmax}")
-        cp = self.phase(radius_coefficients[None])  # (l, m, K)
+        cp = self.phase(radius_coefficients[None], targets)  # (l, m, K)
         r, rt, rp = self.synthesize(self.rotate(i, cp, degree), derivative=True)  # (Q, K)
-        e_r, e_t, e_p = (e[:, :, None] for e in self.basis_rot)
+        Ry = rotation_matrix("y", self.grid.theta[i])
+        e_r, e_t, e_p = ((Ry @ e)[:, :, None] for e in self.basis_rot)  # (3, Q, 1)
         sin_t = np.sin(self.node_angles()[0])[:, None]
-        x_rot = r * e_r  # rotated frame, (3, Q, K)
-        jn_rot = r * (r * e_r - rt * e_t - (rp / sin_t) * e_p)
-        R = self.ring_rotations(i)
-        x = np.einsum("kij,jqk->iqk", R, x_rot)
-        jn = np.einsum("kij,jqk->iqk", R, jn_rot)
+        x_y = r * e_r  # components in the frame rotated by Rz(phi_k)
+        jn_y = r * (r * e_r - rt * e_t - (rp / sin_t) * e_p)
+        c, s = np.cos(self.grid.phi[targets]), np.sin(self.grid.phi[targets])
+        x = np.stack([c * x_y[0] - s * x_y[1], s * x_y[0] + c * x_y[1], x_y[2]])
+        jn = np.stack([c * jn_y[0] - s * jn_y[1], s * jn_y[0] + c * jn_y[1], jn_y[2]])
         J = np.sqrt(np.einsum("iqk,iqk->qk", jn, jn))
         w = self.weights_rot[:, None]
-        return RingGeometry(xh=x - x0[:, None, :], weight=w * J, normal_weighted=w * jn)
+        x -= x0[:, None, :]
+        jn *= w
+        return RingGeometry(xh=x, weight=w * J, normal_weighted=jn)
 
 
 def _real_matmul(mat: np.ndarray, data: np.ndarray) -> np.ndarray:

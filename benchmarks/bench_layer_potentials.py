@@ -1,0 +1,105 @@
+"""Layer potentials N and K: matrix-free vs assembled, per shape and per apply, vs DGEMM."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+import vesicle as vs
+from vesicle.stokes import LayerPotentials, singular_quadrature
+
+from common import best_time, dgemm_rate
+
+
+def _pull_back_rate(n: int) -> tuple[float, float]:
+    """FLOP rate of the adjoint rotate-and-synthesise kernel (assembly's BLAS core)."""
+    q = singular_quadrature(n)
+    K, b = q.grid.n_phi, 12
+    v = np.random.default_rng(0).standard_normal((q.n_nodes, b, K))
+    t = best_time(lambda: q.pull_back(n // 2, v), repeat=3)
+    L1 = q.lmax + 1
+    # Legendre stage (real x interleaved complex) + two real Wigner products per degree
+    flops = 2.0 * L1 * L1 * q.n_rot * 2 * b * K + 2 * 2.0 * L1**3 * b * K
+    return t, flops / t
+
+
+def _matrix_free(shape, f) -> dict:
+    mf = LayerPotentials(shape, method="matrix-free")
+
+    def geometry():
+        mf.__dict__.pop("rings", None)
+        return mf.rings
+
+    row = {"mf_geometry_s": best_time(geometry, repeat=2)}
+    row["mf_apply_N_s"] = best_time(lambda: mf.single_layer(f), repeat=2)
+    row["mf_apply_K_s"] = best_time(lambda: mf.double_layer(f), repeat=2)
+    arrays = [(g.xh, g.weight, g.normal_weighted, g.inv_r) for g in mf.rings]
+    row["mf_memory_MB"] = sum(a.nbytes for group in arrays for a in group) / 1e6
+    return row
+
+
+def _assembled(shape, f) -> dict:
+    def assemble():
+        lp = LayerPotentials(shape, method="assembled")
+        _ = lp.single_matrix
+        return lp
+
+    row = {"asm_build_s": best_time(assemble, repeat=2)}
+    asm = assemble()
+    row["asm_apply_N_s"] = best_time(lambda: asm.single_layer(f), number=5)
+    row["asm_apply_K_s"] = best_time(lambda: asm.double_layer(f), number=5)
+    row["asm_memory_MB"] = (asm.single_matrix.nbytes + asm.double_matrix[0].nbytes) / 1e6
+    return row
+
+
+def _report(n: int, row: dict, gemm: float) -> None:
+    print(f"  {n}x{2 * n}: Wigner tables {row['tables_once_per_grid_s']:.2f} s (once per grid)")
+    print(
+        f"    matrix-free: geometry {row['mf_geometry_s']:.3f} s/shape, apply N "
+        f"{row['mf_apply_N_s']:.3f} s, K {row['mf_apply_K_s']:.3f} s, "
+        f"{row['mf_memory_MB']:.0f} MB"
+    )
+    print(
+        f"    assembled:   build {row['asm_build_s']:.3f} s/shape (N and K), apply N "
+        f"{row['asm_apply_N_s'] * 1e3:.1f} ms, K {row['asm_apply_K_s'] * 1e3:.1f} ms, "
+        f"{row['asm_memory_MB']:.0f} MB"
+    )
+    for applies in (2, 30):
+        a, m = row[f"per_apply_{applies}_asm_s"], row[f"per_apply_{applies}_mf_s"]
+        best = "assembled" if a < m else "matrix-free"
+        print(
+            f"    {applies:2d} applies/shape: per apply assembled {a:.3f} s, "
+            f"matrix-free {m:.3f} s -> {best}"
+        )
+    print(
+        f"    adjoint rotate-and-synthesise kernel: {row['pull_back_ring_s'] * 1e3:.1f} ms/ring, "
+        f"{row['pull_back_fraction_of_dgemm'] * gemm / 1e9:.1f} GFLOP/s = "
+        f"{row['pull_back_fraction_of_dgemm']:.0%} of one-thread DGEMM"
+    )
+
+
+def run() -> dict:
+    gemm = dgemm_rate()
+    print(f"  DGEMM rate (1 thread): {gemm / 1e9:.1f} GFLOP/s")
+    results = {"dgemm_flops": gemm}
+    for n in (32, 48):
+        shape = vs.Shape.spheroid(0.9, grid=n, degree=8).perturbed(0.02, seed=1)
+        f = np.random.default_rng(1).standard_normal((3, n, 2 * n))
+        t0 = time.perf_counter()
+        _ = singular_quadrature(n).wigner
+        row = {"tables_once_per_grid_s": time.perf_counter() - t0}
+        row.update(_matrix_free(shape, f))
+        row.update(_assembled(shape, f))
+        for applies in (2, 30):
+            half = applies / 2
+            mf = row["mf_geometry_s"] + half * (row["mf_apply_N_s"] + row["mf_apply_K_s"])
+            asm = row["asm_build_s"] + half * (row["asm_apply_N_s"] + row["asm_apply_K_s"])
+            row[f"per_apply_{applies}_mf_s"] = mf / applies
+            row[f"per_apply_{applies}_asm_s"] = asm / applies
+        t_pb, rate = _pull_back_rate(n)
+        row["pull_back_ring_s"] = t_pb
+        row["pull_back_fraction_of_dgemm"] = rate / gemm
+        results[f"{n}x{2 * n}"] = row
+        _report(n, row, gemm)
+    return results
