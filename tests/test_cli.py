@@ -51,3 +51,46 @@ def test_shape_bad_input_is_a_clear_error(args):
     r = run(*args)
     assert r.exit_code != 0
     assert "Error" in r.output and "Traceback" not in r.output
+
+
+def test_solve_json_with_split():
+    r = run(
+        "solve",
+        "--shape",
+        "ellipsoid:1.2,0.95,0.85",
+        "--tilt",
+        "20",
+        "--lam",
+        "2",
+        "--grid",
+        "16",
+        "--split",
+        "--json",
+    )
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output)
+    for key in ("S_xz", "N1", "N2", "iterations", "div_residual", "seconds"):
+        assert key in out
+    for part in ("bending", "flow"):
+        assert set(out[part]) >= {"S_xz", "N1", "N2"}
+    assert out["S_xz"] == pytest.approx(out["bending"]["S_xz"] + out["flow"]["S_xz"], rel=1e-3)
+
+
+def test_solve_sphere_is_einstein():
+    r = run("solve", "--shape", "sphere", "--lam", "5", "--grid", "12", "--steady", "--json")
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["S_xz"] == pytest.approx(2.5, abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("solve", "--lam", "0"),
+        ("solve", "--lam", "nan"),
+        ("solve", "--shape", "cube"),
+        ("solve", "--shape", "ellipsoid:1,2"),
+    ],
+)
+def test_solve_bad_input(args):
+    r = run(*args)
+    assert r.exit_code != 0 and "Error" in r.output and "Traceback" not in r.output

@@ -2,7 +2,10 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
+from .flows import LinearFlow
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
+from .rheology import ParticleStress
+from .solver import FlowParameters, FlowResult, SolverError, SolverTolerances, solve_flow
 from .sphere.grid import SphereGrid
 from .stokes import LayerPotentials, double_layer, single_layer
 from .surface import Shape, ShapeError
@@ -13,9 +16,15 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
+    "FlowParameters",
+    "FlowResult",
     "LayerPotentials",
+    "LinearFlow",
+    "ParticleStress",
     "Shape",
     "ShapeError",
+    "SolverError",
+    "SolverTolerances",
     "SphereGrid",
     "__version__",
     "bending_energy",
@@ -23,5 +32,6 @@ __all__ = [
     "double_layer",
     "membrane_force",
     "single_layer",
+    "solve_flow",
     "tension_force",
 ]

@@ -13,6 +13,9 @@ import click
 import numpy as np
 
 from . import __version__
+from .flows import FLOWS
+from .solver import SolverError, default_tension_degree, solve_flow
+from .sphere.rotation import rotation_matrix
 from .surface import Shape, ShapeError
 
 
@@ -95,6 +98,94 @@ def shape(ellipsoid, v, grid, degree, as_json) -> None:
     width = max(len(k) for k, _ in rows)
     for k, val in rows:
         click.echo(f"{k:<{width}}  {val}")
+
+
+def parse_shape(spec: str, grid: int, degree: int | None, tilt_degrees: float) -> Shape:
+    """``sphere``, ``ellipsoid:A,B,C`` or ``spheroid:V``, tilted by ``tilt`` in the x-z plane."""
+    kind, _, args = spec.partition(":")
+    try:
+        values = [float(a) for a in args.split(",")] if args else []
+    except ValueError:
+        raise ShapeError(f"cannot read the numbers in shape {spec!r}") from None
+    if kind == "sphere" and not values:
+        shape = Shape.sphere(grid=grid, degree=degree or 0)
+    elif kind == "ellipsoid" and len(values) == 3:
+        shape = Shape.ellipsoid(*values, grid=grid, degree=degree)
+    elif kind == "spheroid" and len(values) == 1:
+        shape = Shape.spheroid(values[0], grid=grid, degree=degree)
+    else:
+        raise ShapeError(f"unknown shape {spec!r}: use sphere, ellipsoid:A,B,C or spheroid:V")
+    if tilt_degrees:
+        # long axis from x towards +z by the tilt: an active rotation about y by -tilt
+        shape = shape.rotated(rotation_matrix("y", -np.radians(tilt_degrees)))
+    return shape
+
+
+@main.command()
+@click.option(
+    "--shape",
+    "shape_spec",
+    default="spheroid:0.95",
+    show_default=True,
+    help="sphere, ellipsoid:A,B,C (semi-axes along x,y,z) or spheroid:V.",
+)
+@click.option(
+    "--tilt",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Rotate the shape in the x-z plane: long axis from x towards z, degrees.",
+)
+@click.option("--lam", type=float, default=1.0, show_default=True, help="Viscosity ratio.")
+@click.option("--chi", type=float, default=1.0, show_default=True, help="Dimensionless shear rate.")
+@click.option("--flow", type=click.Choice(sorted(FLOWS)), default="shear", show_default=True)
+@click.option(
+    "--grid", type=int, default=32, show_default=True, help="n_theta (n_phi = 2 n_theta)."
+)
+@click.option("--degree", type=int, default=None, help="Degree N of the shape (default: grid's).")
+@click.option("--steady", is_flag=True, help="Tight tolerances (1e-6/1e-7) instead of 1e-3/1e-4.")
+@click.option("--split", is_flag=True, help="Also report the bending and flow parts of S.")
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
+def solve(shape_spec, tilt, lam, chi, flow, grid, degree, steady, split, as_json) -> None:
+    """Membrane velocity, tension and particle stress of a fixed shape."""
+    try:
+        s = parse_shape(shape_spec, grid, degree, tilt)
+        result = solve_flow(
+            s,
+            lam=lam,
+            chi=chi,
+            flow=flow,
+            split=split,
+            tolerances="steady" if steady else "time-dependent",
+        )
+    except (ShapeError, ValueError, SolverError) as err:
+        _fail(str(err))
+    out = {
+        "shape": shape_spec,
+        "tilt_degrees": tilt,
+        "lam": lam,
+        "chi": chi,
+        "flow_type": flow,
+        "grid": [s.grid.n_theta, s.grid.n_phi],
+        "degree": s.degree,
+        "reduced_volume": s.reduced_volume,
+        **result.stress.summary(),
+        "iterations": result.iterations,
+        "inner_per_solve": list(result.inner_per_solve),
+        "div_residual": result.div_residual,
+        "div_residual_relative": result.div_residual_relative,
+        "constraint_residual": result.constraint_residual,
+        "tension_degree": default_tension_degree(s.grid.n_theta),
+        "converged": result.converged,
+        "seconds": result.seconds,
+    }
+    if split and result.split:
+        out.update({k: v.summary() for k, v in result.split.items()})
+    if as_json:
+        click.echo(json.dumps(out))
+        return
+    for key, value in out.items():
+        click.echo(f"{key:<22} {value}")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -321,6 +321,10 @@ class Shape:
             c = np.where(np.abs(c) > noise_floor * big, c, 0.0)
         return T.derivatives(c)
 
+    def filter_field(self, f: np.ndarray, degree: int) -> np.ndarray:
+        """Project grid fields onto spherical harmonics of degree <= ``degree``."""
+        return transform(self.grid.n_theta).filter(f, degree)
+
     def surface_gradient(self, s: np.ndarray) -> np.ndarray:
         """``grad_s s = g^ab (d_b s) a_a`` of a scalar grid field, shape (3, n_theta, n_phi)."""
         d = self.field_derivatives(s)
