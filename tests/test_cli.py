@@ -94,3 +94,74 @@ def test_solve_sphere_is_einstein():
 def test_solve_bad_input(args):
     r = run(*args)
     assert r.exit_code != 0 and "Error" in r.output and "Traceback" not in r.output
+
+
+def test_run_analyze_plot_export_resume(tmp_path):
+    out = tmp_path / "r.h5"
+    r = run(
+        "run",
+        "--grid",
+        "12",
+        "--degree",
+        "4",
+        "--t-end",
+        "0.04",
+        "--save-every",
+        "0.01",
+        "--out",
+        str(out),
+        "--no-progress",
+    )
+    assert r.exit_code == 0, r.output
+    assert out.exists() and (tmp_path / "r" / "psi.png").exists()
+    r = run("analyze", str(out), "--json")
+    assert r.exit_code == 0, r.output
+    summary = json.loads(r.output)
+    for key in ("regime", "period", "final", "mean", "drift"):
+        assert key in summary
+    assert set(summary["final"]) >= {"psi", "D", "axes", "bending_energy"}
+    assert summary["final"]["axes"] == sorted(summary["final"]["axes"], reverse=True)
+    assert set(summary["mean"]) == {"S_xz", "N1", "N2"}
+    assert set(summary["drift"]) == {"area", "volume"}
+    r = run("analyze", str(out), "--csv")
+    header = r.output.splitlines()[0].split(",")
+    assert header[:12] == [
+        "t",
+        "psi",
+        "D",
+        "L1",
+        "L2",
+        "L3",
+        "bending_energy",
+        "area",
+        "volume",
+        "S_xz",
+        "N1",
+        "N2",
+    ]
+    assert len(r.output.splitlines()) == 1 + 5
+    r = run("plot", str(out), "--out", str(tmp_path / "figs"))
+    assert r.exit_code == 0 and (tmp_path / "figs" / "orbit.png").exists()
+    r = run("export", str(out), "--vtk", str(tmp_path / "vtk"))
+    assert r.exit_code == 0 and (tmp_path / "vtk" / "surface.pvd").exists()
+    r = run("run", "--resume", str(out), "--t-end", "0.06", "--no-plot", "--no-progress")
+    assert r.exit_code == 0, r.output
+    r = run("analyze", str(out), "--json")
+    assert json.loads(r.output)["t_final"] == pytest.approx(0.06)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("run", "--v", "1.5"),
+        ("run", "--lam", "-1"),
+        ("run", "--v", "nan"),
+        ("run", "--grid", "8", "--degree", "8"),
+        ("run", "--init", "missing.h5"),
+        ("analyze", "nonexistent.h5"),
+    ],
+)
+def test_run_bad_input(args, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    r = run(*args, "--no-progress") if args[0] == "run" else run(*args)
+    assert r.exit_code != 0 and "Traceback" not in r.output

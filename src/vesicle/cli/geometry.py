@@ -1,37 +1,18 @@
-"""Command-line interface: ``vesicle <command>``.
-
-The CLI is the only layer that prints; library code logs through :mod:`logging`.
-"""
+"""``vesicle shape`` and ``vesicle solve``: geometry and one velocity-tension solve."""
 
 from __future__ import annotations
 
 import json
-import logging
-import sys
 
 import click
 import numpy as np
 
-from . import __version__
-from .flows import FLOWS
-from .solver import SolverError, default_tension_degree, solve_flow
-from .sphere.rotation import rotation_matrix
-from .surface import Shape, ShapeError
-
-
-def _fail(message: str) -> None:
-    raise click.ClickException(message)
-
-
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(__version__, prog_name="vesicle")
-@click.option("-v", "--verbose", count=True, help="More log output on stderr (-v info, -vv debug).")
-def main(verbose: int) -> None:
-    """Spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow."""
-    level = logging.WARNING - 10 * min(verbose, 2)
-    logging.basicConfig(
-        level=level, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s"
-    )
+from ..flows import FLOWS
+from ..solver import SolverError, default_tension_degree, solve_flow
+from ..sphere.rotation import rotation_matrix
+from ..surface import Shape, ShapeError
+from .base import fail as _fail
+from .base import main
 
 
 def shape_summary(s: Shape) -> dict:
@@ -186,7 +167,3 @@ def solve(shape_spec, tilt, lam, chi, flow, grid, degree, steady, split, as_json
         return
     for key, value in out.items():
         click.echo(f"{key:<22} {value}")
-
-
-if __name__ == "__main__":  # pragma: no cover
-    main()

@@ -1,0 +1,174 @@
+"""Shape diagnostics and regime analysis (SPEC §10).
+
+Principal axes are the eigenvectors of the surface inertia tensor about the volume centroid; the
+length of an axis is the sum of the radii from the centroid along its + and - directions (rays
+intersected with the surface).  The inclination ``psi`` is the angle from x to the longer of the
+two principal axes that lie closest to the x-z plane, in (-pi/2, pi/2]; ``D = (L1-L2)/(L1+L2)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import pairwise
+
+import numpy as np
+
+from .sphere.transforms import evaluate, mode_energy, transform
+from .surface import Shape
+
+__all__ = [
+    "Regime",
+    "ShapeDiagnostics",
+    "classify_regime",
+    "diagnose",
+    "ray_radius",
+    "recentered",
+]
+
+
+def _unit_angles(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    d = d / np.linalg.norm(d, axis=0)
+    return np.arctan2(np.hypot(d[0], d[1]), d[2]), np.arctan2(d[1], d[0])
+
+
+def ray_radius(
+    shape: Shape, origin: np.ndarray, directions: np.ndarray, iterations: int = 30
+) -> np.ndarray:
+    """Distance from ``origin`` to the surface along unit ``directions`` (3, ...).
+
+    Solves ``|o + s d| = r(direction of o + s d)`` by the secant method, started from the radius
+    along ``d``; the origin must be inside the (star-shaped) surface.
+    """
+    o = np.asarray(origin, float).reshape(3, *([1] * (directions.ndim - 1)))
+    c = shape.coefficients
+
+    def g(s):
+        p = o + s * directions
+        th, ph = _unit_angles(p)
+        return np.linalg.norm(p, axis=0) - evaluate(c, th, ph)
+
+    s0 = evaluate(c, *_unit_angles(directions)) - np.sum(o * directions, axis=0)
+    s1 = s0 * 1.001
+    g0, g1 = g(s0), g(s1)
+    for _ in range(iterations):
+        denom = np.where(g1 != g0, g1 - g0, 1.0)
+        s2 = np.where(g1 != g0, s1 - g1 * (s1 - s0) / denom, s1)
+        s0, g0, s1 = s1, g1, s2
+        g1 = g(s1)
+        if np.max(np.abs(g1)) < 1e-14 * np.max(s1):
+            break
+    return s1
+
+
+def recentered(shape: Shape, origin: np.ndarray | None = None) -> Shape:
+    """The same surface with its radius measured from ``origin`` (default: the volume centroid)."""
+    origin = shape.centroid if origin is None else np.asarray(origin, float)
+    e_r = shape.grid.unit_vectors[0]
+    radius = ray_radius(shape, origin, e_r)
+    c = transform(shape.grid.n_theta, shape.degree).analysis(radius)
+    return Shape(c, shape.grid)
+
+
+@dataclass(frozen=True)
+class ShapeDiagnostics:
+    """Geometry summary of one shape."""
+
+    axes: np.ndarray  # (3, 3): row k = unit vector of axis k, lengths descending
+    lengths: np.ndarray  # (3,) full lengths, descending
+    psi: float
+    D: float
+    area: float
+    volume: float
+    reduced_volume: float
+    bending_energy: float
+    centroid: np.ndarray
+    spectrum: np.ndarray
+
+
+def diagnose(shape: Shape) -> ShapeDiagnostics:
+    """Principal axes, inclination, deformation, area, volume, energy and spectrum of a shape."""
+    c = shape.centroid
+    _, vecs = np.linalg.eigh(shape.inertia_tensor(c))
+    dirs = np.concatenate([vecs, -vecs], axis=1)  # (3, 6)
+    radii = ray_radius(shape, c, dirs)
+    lengths = radii[:3] + radii[3:]
+    order = np.argsort(lengths)[::-1]
+    axes, lengths = vecs[:, order].T.copy(), lengths[order]
+    # orient each axis with a non-negative x component (then z) for a continuous psi
+    for k in range(3):
+        lead = axes[k, 0] if abs(axes[k, 0]) > 1e-12 else axes[k, 2]
+        if lead < 0:
+            axes[k] = -axes[k]
+    in_plane = np.argsort(np.abs(axes[:, 1]))[:2]  # the two axes closest to the x-z plane
+    i1, i2 = sorted(in_plane, key=lambda k: -lengths[k])
+    a = axes[i1]
+    psi = float(np.arctan2(a[2], a[0]))
+    if psi <= -np.pi / 2:
+        psi += np.pi
+    elif psi > np.pi / 2:
+        psi -= np.pi
+    L1, L2 = lengths[i1], lengths[i2]
+    return ShapeDiagnostics(
+        axes=axes,
+        lengths=lengths,
+        psi=psi,
+        D=float((L1 - L2) / (L1 + L2)),
+        area=shape.area,
+        volume=shape.volume,
+        reduced_volume=shape.reduced_volume,
+        bending_energy=shape.bending_energy(),
+        centroid=c,
+        spectrum=mode_energy(shape.coefficients),
+    )
+
+
+@dataclass(frozen=True)
+class Regime:
+    """Result of :func:`classify_regime`."""
+
+    name: str  # "TT", "TR", "TU", "out-of-plane", "undetermined"
+    period: float | None
+    minima: np.ndarray  # times of the psi minima (TR) or of the half-turn jumps (TU)
+    detail: str
+
+
+def classify_regime(
+    t: np.ndarray,
+    psi: np.ndarray,
+    axes: np.ndarray | None = None,
+    tail: float = 0.5,
+    steady_tol: float = 1e-3,
+) -> Regime:
+    """Classify a run from its inclination series (SPEC §10).
+
+    TU when psi jumps by about pi (it runs through +-pi/2); out-of-plane when the longest axis
+    leaves the x-z plane (|y component| > 0.1 over the last part); TT when psi varies by less
+    than ``steady_tol`` over the last ``tail`` fraction of the run; TR when psi oscillates there
+    with at least two minima.  The period is the mean time between consecutive minima of psi (TR)
+    or between half-turn jumps (TU, so a half turn).
+    """
+    t, psi = np.asarray(t, float), np.asarray(psi, float)
+    if t.size < 5:
+        return Regime("undetermined", None, np.array([]), "fewer than 5 saved steps")
+    last = t >= t[0] + (1 - tail) * (t[-1] - t[0])
+    jumps = np.nonzero(np.abs(np.diff(psi)) > 0.75 * np.pi)[0]
+    if axes is not None and np.median(np.abs(np.asarray(axes)[last, 0, 1])) > 0.1:
+        return Regime("out-of-plane", None, np.array([]), "longest axis out of the x-z plane")
+    if jumps.size:
+        times = 0.5 * (t[jumps] + t[jumps + 1])
+        period = float(np.mean(np.diff(times))) if times.size > 1 else None
+        return Regime("TU", period, times, f"{jumps.size} half-turn jumps of psi")
+    p = psi[last]
+    minima = np.nonzero((p[1:-1] < p[:-2]) & (p[1:-1] <= p[2:]))[0] + 1
+    spread = float(np.ptp(p))
+    if spread < steady_tol:
+        return Regime("TT", None, np.array([]), f"psi steady to {spread:.1e} over the tail")
+    if minima.size >= 2:
+        # a decaying oscillation that settles is TT; a sustained one is TR
+        tm = t[last][minima]
+        tl = t[last]
+        amp = [np.ptp(p[(tl >= a) & (tl <= b)]) for a, b in pairwise(tm)]
+        if len(amp) >= 2 and amp[-1] < 0.5 * amp[0]:
+            return Regime("TT", float(np.mean(np.diff(tm))), tm, "damped oscillation of psi")
+        return Regime("TR", float(np.mean(np.diff(tm))), tm, "sustained oscillation of psi")
+    return Regime("undetermined", None, np.array([]), "psi still drifting; run longer")

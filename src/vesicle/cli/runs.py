@@ -1,0 +1,257 @@
+"""``vesicle run``, ``analyze``, ``plot`` and ``export``: the time-dependent main job."""
+
+from __future__ import annotations
+
+import csv
+import json
+import signal
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import click
+from tqdm import tqdm
+
+from ..dynamics import TABLEAUS, RunParameters
+from ..flows import FLOWS
+from ..io import RunData, read_run
+from ..plots import plot_run
+from ..simulation import SimulationError, load_parameters, simulate, summarize
+from ..solver import SolverError
+from ..surface import ShapeError
+from ..vtk import export_vtk
+from .base import fail, main
+
+CSV_COLUMNS = (
+    "t",
+    "psi",
+    "D",
+    "L1",
+    "L2",
+    "L3",
+    "bending_energy",
+    "area",
+    "volume",
+    "S_xz",
+    "N1",
+    "N2",
+    "dt",
+    "outer_iterations",
+    "inner_iterations",
+)
+
+
+def _load(path: str) -> RunData:
+    try:
+        return read_run(path)
+    except (FileNotFoundError, ValueError) as err:
+        fail(str(err))
+
+
+def _start_shape(init: str):
+    """``spheroid`` or ``FILE[:INDEX]`` (a saved step of another run, default the last)."""
+    if init == "spheroid":
+        return None
+    path, _, index = init.partition(":")
+    if not Path(path).exists():
+        fail(f"--init must be 'spheroid' or FILE[:INDEX] of a run file; {path!r} does not exist")
+    run = _load(path)
+    try:
+        return run.shape(int(index) if index else -1)
+    except (ValueError, IndexError):
+        fail(f"no saved step {index!r} in {path} ({run.n_saved} saved)")
+
+
+class _Bar:
+    def __init__(self, t0: float, t_end: float, enabled: bool):
+        self.bar = tqdm(
+            total=t_end,
+            initial=t0,
+            unit="t",
+            disable=not enabled,
+            file=sys.stderr,
+            bar_format="{l_bar}{bar}| t={n:.4f}/{total:g} [{elapsed}<{remaining}] {postfix}",
+        )
+        self.t = t0
+
+    def __call__(self, info: dict) -> None:
+        self.bar.update(info["t"] - self.t)
+        self.t = info["t"]
+        self.bar.set_postfix_str(
+            f"dt={info['dt']:.1e} psi={info['psi']:+.4f} "
+            f"GMRES {info['outer']}/{info['inner']} "
+            f"rejected={info['rejected']}",
+            refresh=False,
+        )
+
+
+def _sigterm(*_) -> None:
+    raise KeyboardInterrupt
+
+
+@main.command()
+@click.option("--v", "v", type=float, default=0.95, show_default=True, help="Reduced volume.")
+@click.option("--lam", type=float, default=1.0, show_default=True, help="Viscosity ratio.")
+@click.option("--chi", type=float, default=1.0, show_default=True, help="Shear rate.")
+@click.option("--flow", type=click.Choice(sorted(FLOWS)), default="shear", show_default=True)
+@click.option("--t-end", type=float, default=3.0, show_default=True, help="End time.")
+@click.option("--out", type=click.Path(dir_okay=False), default="run.h5", show_default=True)
+@click.option("--grid", type=int, default=24, show_default=True, help="n_theta of the grid.")
+@click.option("--degree", type=int, default=8, show_default=True, help="Shape degree N.")
+@click.option(
+    "--init",
+    default="spheroid",
+    show_default=True,
+    help="'spheroid' (of --v, long axis x) or FILE[:INDEX] (a saved step of a run).",
+)
+@click.option(
+    "--tilt",
+    type=float,
+    default=0.0,
+    help="Tilt (degrees) about the shorter in-plane principal axis, for out-of-plane starts.",
+)
+@click.option("--perturb", type=float, default=0.0, help="Random perturbation amplitude.")
+@click.option("--seed", type=int, default=0, help="Seed of the random perturbation.")
+@click.option(
+    "--save-every", type=float, default=0.05, show_default=True, help="Time between saved steps."
+)
+@click.option(
+    "--rtol",
+    type=float,
+    default=1e-4,
+    show_default=True,
+    help="Local error per step, relative to the mean radius.",
+)
+@click.option("--dt-max", type=float, default=0.05, show_default=True)
+@click.option("--integrator", type=click.Choice(sorted(TABLEAUS)), default="bs3", show_default=True)
+@click.option(
+    "--steady-tol",
+    type=float,
+    default=0.0,
+    help="Stop once max |dr/dt| falls below this (0: never).",
+)
+@click.option("--periods", type=int, default=0, help="Stop after this many periods of psi.")
+@click.option(
+    "--checkpoint-every",
+    type=float,
+    default=60.0,
+    show_default=True,
+    help="Wall seconds between checkpoints.",
+)
+@click.option("--no-drift-control", is_flag=True, help="Do not restore area and volume.")
+@click.option(
+    "--resume",
+    type=click.Path(exists=True, dir_okay=False),
+    help="Continue the run in this file from its checkpoint (to --t-end if given).",
+)
+@click.option(
+    "--plot/--no-plot",
+    default=True,
+    show_default=True,
+    help="Write the figures next to the output file at the end.",
+)
+@click.option("--progress/--no-progress", default=True, show_default=True)
+@click.pass_context
+def run(ctx, resume, plot, progress, **options) -> None:
+    """Time-dependent simulation of a vesicle in shear (writes an HDF5 run file)."""
+    signal.signal(signal.SIGTERM, _sigterm)
+    try:
+        if resume:
+            data = _load(resume)
+            params = load_parameters(data)
+            if ctx.get_parameter_source("t_end") != click.core.ParameterSource.DEFAULT:
+                params = replace(params, t_end=options["t_end"])
+            out, start = resume, None
+        else:
+            data, out = None, options.pop("out")
+            start = _start_shape(options["init"])
+            options["drift_control"] = not options.pop("no_drift_control")
+            params = RunParameters(**{k: v for k, v in options.items() if k != "out"})
+    except (ValueError, ShapeError) as err:
+        fail(str(err))
+    t0 = float(data.checkpoint["t"]) if data is not None and data.checkpoint else 0.0
+    bar = _Bar(t0, params.t_end, progress)
+    try:
+        result = simulate(params, out=out, progress=bar, start=start, resume=data)
+    except KeyboardInterrupt:
+        bar.bar.close()
+        click.echo(
+            f"interrupted; checkpoint in {out} (resume with: vesicle run --resume {out})", err=True
+        )
+        sys.exit(130)
+    except (SimulationError, SolverError, ShapeError) as err:
+        bar.bar.close()
+        fail(f"{err} (checkpoint in {out}; the run file holds everything up to there)")
+    bar.bar.close()
+    summary = summarize(result)
+    click.echo(
+        f"wrote {out}: t = {summary['t_final']:g}, regime {summary['regime']}, "
+        f"psi = {summary['final']['psi']:.4f}, D = {summary['final']['D']:.4f}",
+        err=True,
+    )
+    if plot:
+        figures = plot_run(result, Path(out).with_suffix(""), prefix="")
+        click.echo(f"figures in {Path(out).with_suffix('')}/ ({len(figures)} files)", err=True)
+
+
+@main.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+@click.option("--csv", "as_csv", is_flag=True, help="The time series as CSV on stdout.")
+def analyze(file, as_json, as_csv) -> None:
+    """Regime, period, final shape, mean stress and drift of a run file."""
+    data = _load(file)
+    if data.n_saved == 0:
+        fail(f"{file} has no saved steps")
+    if as_csv:
+        writer = csv.writer(sys.stdout)
+        writer.writerow(CSV_COLUMNS)
+        s = data.series
+        for i in range(data.n_saved):
+            row = {k: s[k][i] for k in s if s[k].ndim == 1}
+            row.update({"L1": s["L"][i, 0], "L2": s["L"][i, 1], "L3": s["L"][i, 2]})
+            writer.writerow([f"{float(row[c]):.12g}" for c in CSV_COLUMNS])
+        return
+    summary = summarize(data)
+    if as_json:
+        click.echo(json.dumps(summary))
+        return
+    for key, value in summary.items():
+        if key != "parameters":
+            click.echo(f"{key:<15} {value}")
+
+
+@main.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option(
+    "--out",
+    "outdir",
+    type=click.Path(file_okay=False),
+    help="Folder for the PNG files (default: FILE without its suffix).",
+)
+def plot(file, outdir) -> None:
+    """PNG figures of a run: psi(t), D(t), S(t), D-psi orbit, shape projections, axes."""
+    data = _load(file)
+    paths = plot_run(data, outdir or Path(file).with_suffix(""))
+    for p in paths:
+        click.echo(str(p))
+
+
+@main.command()
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option(
+    "--vtk",
+    "vtk_dir",
+    type=click.Path(file_okay=False),
+    required=True,
+    help="Folder for the VTK time series (surface_*.vtp and surface.pvd).",
+)
+@click.option("--every", type=int, default=1, show_default=True, help="Export every k-th step.")
+def export(file, vtk_dir, every) -> None:
+    """The surface at saved steps as a VTK time series for ParaView."""
+    data = _load(file)
+    try:
+        paths = export_vtk(data, vtk_dir, every=every)
+    except ValueError as err:
+        fail(str(err))
+    click.echo(f"wrote {len(paths) - 1} surfaces and {paths[-1]}")

@@ -1,0 +1,375 @@
+"""Time-dependent simulation of the vesicle shape (SPEC §7, §10, §13).
+
+The radius coefficients evolve by ``dr/dt = Dr/Dt - r_theta Dtheta/Dt - r_phi Dphi/Dt`` (2.18),
+with ``Dr/Dt = e_r . u``, ``Dtheta/Dt = e_theta . u / r``, ``Dphi/Dt = e_phi . u / (r sin theta)``
+(2.19), ``u`` the membrane velocity of the current shape, and ``dr/dt`` filtered to degree ``N``.
+
+Integrator: an embedded explicit Runge–Kutta pair with error control on the coefficients
+(Bogacki–Shampine 3(2), FSAL, by default; Heun–Euler 2(1) as the cheaper option).  Its step is
+limited by accuracy and, for stiff bending modes, by stability (the adaptive control finds that
+limit, roughly proportional to N^-3).  Steps are shortened to land exactly on save times.
+
+After each accepted step (both logged and stored per saved step): the area and volume are
+restored by a minimal-norm normal correction of degree ``<= N`` (the exact dynamics conserves
+both; the integrator drifts slowly), and the radius is re-measured from the volume centroid when
+that has moved by more than ``recenter_threshold``.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .analysis import diagnose, recentered
+from .flows import FLOWS
+from .solver import FlowResult, SolverTolerances, solve_flow
+from .sphere.transforms import resize, transform
+from .surface import Shape, ShapeError
+
+__all__ = [
+    "TABLEAUS",
+    "Evaluation",
+    "Integrator",
+    "RunParameters",
+    "StepResult",
+    "StepState",
+    "initial_shape",
+    "post_step",
+    "rate_of_change",
+    "restore_area_volume",
+]
+
+log = logging.getLogger(__name__)
+
+#: Embedded RK pairs: (c, A, b (higher order), b_hat (embedded), order of b, FSAL).
+TABLEAUS = {
+    "bs3": (
+        [0.0, 0.5, 0.75, 1.0],
+        [[], [0.5], [0.0, 0.75], [2 / 9, 1 / 3, 4 / 9]],
+        [2 / 9, 1 / 3, 4 / 9, 0.0],
+        [7 / 24, 1 / 4, 1 / 3, 1 / 8],
+        3,
+        True,
+    ),
+    "heun": ([0.0, 1.0], [[], [1.0]], [0.5, 0.5], [1.0, 0.0], 2, False),
+}
+
+
+@dataclass(frozen=True)
+class RunParameters:
+    """Everything that defines a time-dependent run (stored in its output file)."""
+
+    v: float = 0.95
+    lam: float = 1.0
+    chi: float = 1.0
+    flow: str = "shear"
+    grid: int = 32
+    degree: int = 8
+    t_end: float = 20.0
+    save_every: float = 0.05
+    init: str = "spheroid"
+    tilt: float = 0.0  # degrees, about the shorter in-plane principal axis (SPEC §13)
+    perturb: float = 0.0
+    seed: int = 0
+    integrator: str = "bs3"
+    rtol: float = 1e-4  # local error per step, relative to the mean radius
+    dt0: float = 1e-3
+    dt_min: float = 1e-7
+    dt_max: float = 0.05
+    tolerances: str = "time-dependent"
+    drift_control: bool = True
+    drift_tol: float = 1e-6  # relative area/volume drift that triggers a correction
+    recenter_threshold: float = 1e-4
+    steady_tol: float = 0.0  # stop when max |dr/dt| falls below this (0: never)
+    periods: int = 0  # stop after this many psi periods (0: never)
+    checkpoint_every: float = 60.0  # wall seconds between checkpoints
+
+    def __post_init__(self) -> None:
+        for name in (
+            "v",
+            "lam",
+            "chi",
+            "t_end",
+            "save_every",
+            "rtol",
+            "dt0",
+            "dt_min",
+            "dt_max",
+            "perturb",
+            "tilt",
+            "steady_tol",
+            "recenter_threshold",
+            "checkpoint_every",
+            "drift_tol",
+        ):
+            value = getattr(self, name)
+            if not isinstance(value, int | float) or not np.isfinite(value):
+                raise ValueError(f"{name} must be a finite number, got {value!r}")
+        if not 0.0 < self.v <= 1.0:
+            raise ValueError(f"reduced volume v must lie in (0, 1], got {self.v}")
+        if self.lam <= 0.0:
+            raise ValueError(f"viscosity ratio lam must be positive, got {self.lam}")
+        if self.flow not in FLOWS:
+            raise ValueError(f"unknown flow {self.flow!r}; choose one of {sorted(FLOWS)}")
+        if self.degree < 2 or self.grid <= self.degree:
+            raise ValueError(
+                f"degree N = {self.degree} needs N >= 2 and a grid of n_theta > N "
+                f"(got n_theta = {self.grid}); SPEC's default is N = 8 on 32 x 64"
+            )
+        for name in ("t_end", "save_every", "rtol", "dt0", "dt_min", "dt_max"):
+            if getattr(self, name) <= 0.0:
+                raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        if self.dt_min > self.dt_max:
+            raise ValueError("dt_min must not exceed dt_max")
+        if self.integrator not in TABLEAUS:
+            raise ValueError(f"integrator must be one of {sorted(TABLEAUS)}")
+        if self.tolerances not in ("time-dependent", "steady"):
+            raise ValueError("tolerances must be 'time-dependent' or 'steady'")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass(frozen=True, eq=False)
+class Evaluation:
+    """The right-hand side at one shape: the solve and the filtered ``dr/dt`` coefficients."""
+
+    shape: Shape
+    rate: np.ndarray  # (N+1, N+1) complex
+    flow: FlowResult
+
+
+def rate_of_change(shape: Shape, u: np.ndarray, degree: int) -> np.ndarray:
+    """Coefficients of ``dr/dt`` (2.18)-(2.19) at fixed grid directions, filtered to ``degree``."""
+    e_r, e_t, e_p = shape.grid.unit_vectors
+    d = shape._radius_derivatives  # r and its derivatives on the grid
+    st = np.sin(shape.grid.theta)[:, None]
+    dot = lambda a, b: np.einsum("i...,i...->...", a, b)  # noqa: E731
+    r = d.f
+    drdt = dot(e_r, u) - d.t * dot(e_t, u) / r - d.p * dot(e_p, u) / (r * st)
+    return transform(shape.grid.n_theta, degree).analysis(drdt)
+
+
+@dataclass
+class StepState:
+    """The integrator's state between steps: all that a bit-identical restart needs.
+
+    ``sigma_in`` is the tension warm start with which the current state was (and on restart
+    will again be) evaluated, so the restarted run repeats the same GMRES iterations.
+    """
+
+    t: float
+    coefficients: np.ndarray
+    dt: float
+    sigma_in: np.ndarray | None = None
+    steps: int = 0
+    rejected: int = 0
+    next_save: float = 0.0
+    area0: float = 4.0 * np.pi
+    volume0: float = 0.0
+    previous_error: float = 1.0  # the step-size controller's memory
+    corrections: dict = field(
+        default_factory=lambda: {"area": 0.0, "volume": 0.0, "recentered": 0, "evaluations": 0}
+    )
+
+    def to_checkpoint(self) -> dict:
+        ck = {
+            "t": self.t,
+            "coefficients": self.coefficients,
+            "dt": self.dt,
+            "steps": self.steps,
+            "rejected": self.rejected,
+            "next_save": self.next_save,
+            "area0": self.area0,
+            "volume0": self.volume0,
+            "corrections": self.corrections,
+            "previous_error": self.previous_error,
+        }
+        if self.sigma_in is not None:
+            ck["sigma_in"] = self.sigma_in
+        return ck
+
+    @classmethod
+    def from_checkpoint(cls, ck: dict) -> StepState:
+        return cls(
+            t=float(ck["t"]),
+            coefficients=np.asarray(ck["coefficients"]),
+            dt=float(ck["dt"]),
+            sigma_in=ck.get("sigma_in"),
+            steps=int(ck["steps"]),
+            rejected=int(ck["rejected"]),
+            next_save=float(ck["next_save"]),
+            area0=float(ck["area0"]),
+            volume0=float(ck["volume0"]),
+            corrections=dict(ck["corrections"]),
+            previous_error=float(ck.get("previous_error", 1.0)),
+        )
+
+
+class Integrator:
+    """Adaptive embedded Runge–Kutta stepping of the radius coefficients."""
+
+    def __init__(self, params: RunParameters):
+        self.params = params
+        c, A, b, b_hat, order, fsal = TABLEAUS[params.integrator]
+        self.c, self.A, self.b = c, A, np.array(b)
+        self.e = np.array(b) - np.array(b_hat)
+        self.order, self.fsal = order, fsal
+        self.tolerances = (
+            SolverTolerances.steady()
+            if params.tolerances == "steady"
+            else SolverTolerances.time_dependent()
+        )
+        self.previous_error = 1.0  # of the last accepted step, for the PI controller
+
+    def _next_dt(self, dt: float, err: float) -> float:
+        """PI step-size control (Gustafsson): damps the accept/reject cycling that plain
+        control shows at the stability limit of stiff (bending) modes.  After a rejection the
+        step shrinks by the elementary rule alone."""
+        k = self.order
+        err = max(err, 1e-10)
+        if err > 1.0:
+            factor = max(0.2, 0.9 * err ** (-1.0 / k))
+        else:
+            factor = 0.9 * err ** (-0.7 / k) * self.previous_error ** (0.4 / k)
+            factor = min(5.0, max(0.2, factor))
+            self.previous_error = err
+        return float(np.clip(dt * factor, self.params.dt_min, self.params.dt_max))
+
+    def evaluate(self, coefficients: np.ndarray, sigma0: np.ndarray | None) -> Evaluation:
+        shape = Shape(coefficients, self.params.grid)
+        flow = solve_flow(
+            shape,
+            lam=self.params.lam,
+            chi=self.params.chi,
+            flow=self.params.flow,
+            tolerances=self.tolerances,
+            sigma0=sigma0,
+        )
+        return Evaluation(shape, rate_of_change(shape, flow.u, self.params.degree), flow)
+
+    def step(self, y: np.ndarray, dt: float, first: Evaluation) -> StepResult:
+        """Try one step of size ``dt`` from ``y``, where ``first`` is the evaluation at ``y``."""
+        k = [first.rate]
+        sigma = first.flow.sigma
+        last, sigma_last = None, None
+        for i in range(1, len(self.c)):
+            yi = y + dt * sum(a * kj for a, kj in zip(self.A[i], k, strict=False))
+            try:
+                sigma_last = sigma
+                last = self.evaluate(yi, sigma)
+            except ShapeError:  # the stage left the representable set: a too-large step
+                return StepResult(False, np.inf, y, dt * 0.25, None, sigma)
+            sigma = last.flow.sigma
+            k.append(last.rate)
+        y_new = y + dt * sum(bj * kj for bj, kj in zip(self.b, k, strict=False))
+        err = dt * sum(ej * kj for ej, kj in zip(self.e, k, strict=False))
+        scale = abs(y[0, 0]) / np.sqrt(2.0)  # mean radius
+        err_norm = float(np.max(np.abs(err)) / (self.params.rtol * scale))
+        dt_next = self._next_dt(dt, err_norm)
+        if self.fsal:
+            return StepResult(err_norm <= 1.0, err_norm, y_new, dt_next, last, sigma_last)
+        return StepResult(err_norm <= 1.0, err_norm, y_new, dt_next, None, sigma)
+
+
+@dataclass(frozen=True, eq=False)
+class StepResult:
+    """Outcome of :meth:`Integrator.step`.
+
+    ``final`` is the evaluation at ``y_new`` when the pair is FSAL (else ``None``), made with the
+    warm start ``sigma``; otherwise ``sigma`` is the warm start for evaluating ``y_new``.
+    """
+
+    accepted: bool
+    error: float
+    y_new: np.ndarray
+    dt_next: float
+    final: Evaluation | None
+    sigma: np.ndarray | None
+
+
+def restore_area_volume(
+    shape: Shape, area: float, volume: float, degree: int, iterations: int = 3
+) -> tuple[Shape, float, float]:
+    """Minimal-norm normal correction of degree ``<= degree`` restoring ``area`` and ``volume``.
+
+    ``delta r = alpha g_A + beta g_V`` with the L2 gradients ``g_A = -2 H (n . e_r) J``,
+    ``g_V = (n . e_r) J`` on the unit sphere, projected to degree ``degree``.  Returns the shape
+    and the relative area and volume errors it removed.
+    """
+    da, dv = 1.0 - shape.area / area, 1.0 - shape.volume / volume
+    T = transform(shape.grid.n_theta, degree)
+    for _ in range(iterations):
+        err = np.array([area - shape.area, volume - shape.volume])
+        if np.all(np.abs(err) <= 1e-14 * np.array([area, volume])):
+            break
+        ner = np.einsum("i...,i...->...", shape.normal, shape.grid.unit_vectors[0])
+        J = shape.area_element
+        grads = [T.analysis(-2.0 * shape.mean_curvature * ner * J), T.analysis(ner * J)]
+        fields = [T.synthesis(g) for g in grads]
+        w = shape.grid.weights
+        M = np.array(
+            [
+                [np.sum(w * gi * fj) for fj in fields]
+                for gi in (-2.0 * shape.mean_curvature * ner * J, ner * J)
+            ]
+        )
+        alpha, beta = np.linalg.solve(M, err)
+        c = resize(shape.coefficients, degree) + alpha * grads[0] + beta * grads[1]
+        shape = Shape(c, shape.grid)
+    return shape, da, dv
+
+
+def initial_shape(params: RunParameters, source: Shape | None = None) -> Shape:
+    """The start shape: a spheroid of ``v`` (area 4 pi, long axis x) or ``source``, then the
+    optional tilt about the shorter in-plane principal axis and random perturbation."""
+    shape = source if source is not None else Shape.spheroid(params.v, params.grid, params.degree)
+    shape = Shape(resize(shape.coefficients, params.degree), params.grid)
+    if params.tilt:
+        d = diagnose(shape)
+        in_plane = np.argsort(np.abs(d.axes[:, 1]))[:2]
+        short = d.axes[min(in_plane, key=lambda k: d.lengths[k])]
+        shape = shape.rotated(_axis_rotation(short, np.radians(params.tilt)))
+    if params.perturb:
+        shape = shape.perturbed(params.perturb, seed=params.seed, degree=params.degree)
+        shape = Shape(resize(shape.coefficients, params.degree), params.grid)
+    return shape
+
+
+def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+    """Rotation by ``angle`` about the unit ``axis`` (Rodrigues)."""
+    a = axis / np.linalg.norm(axis)
+    K = np.array([[0, -a[2], a[1]], [a[2], 0, -a[0]], [-a[1], a[0], 0]])
+    return np.eye(3) + np.sin(angle) * K + (1 - np.cos(angle)) * K @ K
+
+
+def post_step(shape: Shape, state: StepState, params: RunParameters) -> tuple[Shape, bool]:
+    """Drift control and re-centring after an accepted step, when needed (recorded in ``state``).
+
+    The area and volume are restored once either has drifted by more than ``drift_tol``
+    (relative); the radius is re-measured from the volume centroid once that has moved by more
+    than ``recenter_threshold``.  Returns the shape and whether it changed.
+    """
+    changed = False
+    if params.drift_control:
+        da = abs(1.0 - shape.area / state.area0)
+        dv = abs(1.0 - shape.volume / state.volume0)
+        if max(da, dv) > params.drift_tol:
+            shape, da, dv = restore_area_volume(shape, state.area0, state.volume0, params.degree)
+            state.corrections["area"] += abs(da)
+            state.corrections["volume"] += abs(dv)
+            changed = True
+            log.debug("t=%.5f drift control removed dA/A=%.2e dV/V=%.2e", state.t, da, dv)
+    centre = shape.centroid
+    if np.linalg.norm(centre) > params.recenter_threshold:
+        shape = Shape(resize(recentered(shape).coefficients, params.degree), params.grid)
+        state.corrections["recentered"] += 1
+        changed = True
+        log.info(
+            "t=%.5f re-centred on the volume centroid (moved by %.2e)",
+            state.t,
+            np.linalg.norm(centre),
+        )
+    return shape, changed

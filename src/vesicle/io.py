@@ -1,0 +1,175 @@
+"""HDF5 run files: parameters, time series, shapes at saved steps, and the restart checkpoint.
+
+Layout of a run file (all written by :func:`write_run`):
+
+``/`` attributes
+    ``format = "vesicle-run"``, ``format_version``, ``vesicle_version``, ``created``, ``updated``.
+``/parameters`` attributes
+    every run parameter (``v, lam, chi, flow, flow_gradient, grid, degree, t_end, ...``); values
+    that are dictionaries are stored as JSON strings.
+``/series/<name>``
+    one entry per saved step: ``t, psi, D, L`` (n, 3: principal-axis lengths, descending),
+    ``axes`` (n, 3, 3: row k is the unit vector of axis k), ``area, volume, reduced_volume,
+    bending_energy, S`` (n, 3, 3), ``S_xz, N1, N2, dt, outer_iterations, inner_iterations,
+    spectrum`` (n, N+1), ``centroid`` (n, 3), ``area_correction, volume_correction``.
+``/shapes/coefficients``
+    (n, N+1, N+1) complex radius coefficients at the saved steps (SPEC §2 normalisation).
+``/checkpoint``
+    the integrator state to resume from (arrays and attributes; see :mod:`vesicle.dynamics`).
+
+Every write goes to ``FILE.tmp`` and is then renamed over ``FILE``, so an interrupted write never
+corrupts an existing file.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from . import __version__
+from .surface import Shape
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "RunData", "read_run", "write_run"]
+
+FORMAT = "vesicle-run"
+FORMAT_VERSION = 1
+
+#: Series stored per saved step, with their trailing shapes.
+SERIES = {
+    "t": (),
+    "psi": (),
+    "D": (),
+    "L": (3,),
+    "axes": (3, 3),
+    "area": (),
+    "volume": (),
+    "reduced_volume": (),
+    "bending_energy": (),
+    "S": (3, 3),
+    "S_xz": (),
+    "N1": (),
+    "N2": (),
+    "dt": (),
+    "outer_iterations": (),
+    "inner_iterations": (),
+    "centroid": (3,),
+    "area_correction": (),
+    "volume_correction": (),
+}
+
+
+@dataclass
+class RunData:
+    """Everything in a run file, in memory.
+
+    ``series`` maps the names of :data:`SERIES` (and ``spectrum``) to arrays whose first axis runs
+    over the saved steps; ``coefficients`` holds the shapes at those steps.
+    """
+
+    parameters: dict
+    series: dict[str, np.ndarray]
+    coefficients: np.ndarray  # (n, N+1, N+1) complex
+    checkpoint: dict | None = None
+    attributes: dict = field(default_factory=dict)
+
+    @property
+    def n_saved(self) -> int:
+        return int(self.coefficients.shape[0])
+
+    @property
+    def grid(self) -> int:
+        return int(self.parameters["grid"])
+
+    @property
+    def degree(self) -> int:
+        return int(self.parameters["degree"])
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        series = self.__dict__.get("series", {})
+        if name in series:
+            return series[name]
+        raise AttributeError(name)
+
+    def shape(self, index: int = -1, grid: int | None = None) -> Shape:
+        """The shape at saved step ``index`` (default: the last), on its grid or another."""
+        return Shape(self.coefficients[index], self.grid if grid is None else grid)
+
+
+def _attr_value(value):
+    if isinstance(value, dict | list | tuple) or value is None:
+        return json.dumps(value)
+    return value
+
+
+def _from_attr(value):
+    if isinstance(value, bytes):
+        value = value.decode()
+    if isinstance(value, str):
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def write_run(path: str | os.PathLike, run: RunData) -> Path:
+    """Write ``run`` atomically to ``path`` (HDF5)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    now = datetime.now(UTC).isoformat(timespec="seconds")
+    with h5py.File(tmp, "w") as f:
+        f.attrs["format"] = FORMAT
+        f.attrs["format_version"] = FORMAT_VERSION
+        f.attrs["vesicle_version"] = __version__
+        f.attrs["created"] = run.attributes.get("created", now)
+        f.attrs["updated"] = now
+        params = f.create_group("parameters")
+        for key, value in run.parameters.items():
+            params.attrs[key] = _attr_value(value)
+        series = f.create_group("series")
+        for key, value in run.series.items():
+            series.create_dataset(key, data=np.asarray(value))
+        f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
+        if run.checkpoint is not None:
+            ck = f.create_group("checkpoint")
+            for key, value in run.checkpoint.items():
+                if isinstance(value, np.ndarray):
+                    ck.create_dataset(key, data=value)
+                else:
+                    ck.attrs[key] = _attr_value(value)
+        f.flush()
+    os.replace(tmp, path)
+    run.attributes.setdefault("created", now)
+    return path
+
+
+def read_run(path: str | os.PathLike) -> RunData:
+    """Load a run file written by :func:`write_run`."""
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"no run file at {path}")
+    try:
+        f = h5py.File(path, "r")
+    except OSError as err:
+        raise ValueError(f"{path} is not a readable HDF5 file: {err}") from None
+    with f:
+        if _from_attr(f.attrs.get("format")) != FORMAT:
+            raise ValueError(f"{path} is not a vesicle run file")
+        attributes = {k: _from_attr(v) for k, v in f.attrs.items()}
+        parameters = {k: _from_attr(v) for k, v in f["parameters"].attrs.items()}
+        series = {k: f["series"][k][()] for k in f["series"]}
+        coefficients = f["shapes"]["coefficients"][()]
+        checkpoint = None
+        if "checkpoint" in f:
+            ck = f["checkpoint"]
+            checkpoint = {k: _from_attr(v) for k, v in ck.attrs.items()}
+            checkpoint.update({k: ck[k][()] for k in ck})
+    return RunData(parameters, series, coefficients, checkpoint, attributes)

@@ -1,0 +1,294 @@
+"""Diagnostic figures of a run: inclination, deformation, stresses, orbit, shapes, axis traces.
+
+All figures are drawn on :class:`matplotlib.figure.Figure` objects with an Agg canvas, so the
+module never touches pyplot's global state and works without a display.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from .io import RunData
+from .sphere.transforms import evaluate
+
+__all__ = ["is_out_of_plane", "plot_run", "section_xy", "section_xz"]
+
+logger = logging.getLogger(__name__)
+
+#: |y component| of the longest axis above which a run counts as out of the shear plane.
+OUT_OF_PLANE_THRESHOLD = 0.05
+
+#: Points along each cross-section curve.
+SECTION_POINTS = 361
+
+
+# --------------------------------------------------------------------- helpers
+def _fmt(value: object) -> str:
+    if isinstance(value, int | float | np.number) and not isinstance(value, bool):
+        return f"{float(value):g}"
+    return "?" if value is None else str(value)
+
+
+def _title(run: RunData, what: str) -> str:
+    p = run.parameters
+    params = ", ".join(
+        f"{name} = {_fmt(p.get(key))}" for name, key in (("v", "v"), ("λ", "lam"), ("χ", "chi"))
+    )
+    return f"{what}  ({params})"
+
+
+def _series(run: RunData, name: str) -> np.ndarray:
+    if name not in run.series:
+        raise ValueError(f"run has no series {name!r} (needed for the plots)")
+    return np.asarray(run.series[name], dtype=float)
+
+
+def _figure(figsize: tuple[float, float] = (6.4, 4.2)) -> Figure:
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def _save(fig: Figure, path: Path, dpi: int) -> Path:
+    fig.savefig(path, dpi=dpi, format="png")
+    logger.debug("wrote %s", path)
+    return path
+
+
+def is_out_of_plane(run: RunData) -> bool:
+    """Whether the run leaves the shear plane (tilted start, or long axis gaining a y part).
+
+    Parameters
+    ----------
+    run : RunData
+        The run; uses ``series["axes"]`` and ``parameters["tilt"]`` when present.
+
+    Returns
+    -------
+    bool
+        True if any ``|axes[:, 0, 1]| > 0.05`` or a non-zero ``tilt`` parameter is set.
+    """
+    tilt = run.parameters.get("tilt", 0)
+    try:
+        tilted = bool(np.any(np.asarray(tilt if tilt is not None else 0, dtype=float) != 0))
+    except (TypeError, ValueError):
+        tilted = False
+    axes = run.series.get("axes")
+    if axes is None or np.size(axes) == 0:
+        return tilted
+    y = np.abs(np.asarray(axes, dtype=float)[:, 0, 1])
+    return tilted or bool(np.any(y[np.isfinite(y)] > OUT_OF_PLANE_THRESHOLD))
+
+
+# ------------------------------------------------------------------ sections
+def section_xz(coefficients: np.ndarray, m: int = SECTION_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Closed cross-section curve of the surface with the plane ``y = 0``.
+
+    Parameters
+    ----------
+    coefficients : complex array (N+1, N+1)
+        Radius coefficients of the shape.
+    m : int
+        Number of points on the curve.
+
+    Returns
+    -------
+    x, z : ndarray (m,)
+        The curve, running over ``phi = 0`` from the north to the south pole and back over
+        ``phi = pi``.
+    """
+    s = np.linspace(0.0, 2.0 * np.pi, m)
+    theta = np.where(s <= np.pi, s, 2.0 * np.pi - s)
+    phi = np.where(s <= np.pi, 0.0, np.pi)
+    r = evaluate(coefficients, theta, phi)
+    return r * np.sin(theta) * np.cos(phi), r * np.cos(theta)
+
+
+def section_xy(coefficients: np.ndarray, m: int = SECTION_POINTS) -> tuple[np.ndarray, np.ndarray]:
+    """Closed cross-section curve of the surface with the plane ``z = 0`` (the equator).
+
+    Parameters
+    ----------
+    coefficients : complex array (N+1, N+1)
+        Radius coefficients of the shape.
+    m : int
+        Number of points on the curve.
+
+    Returns
+    -------
+    x, y : ndarray (m,)
+        The equatorial curve for ``phi`` from 0 to ``2 pi``.
+    """
+    phi = np.linspace(0.0, 2.0 * np.pi, m)
+    r = evaluate(coefficients, np.full(m, 0.5 * np.pi), phi)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
+# ------------------------------------------------------------------- figures
+def _plot_psi(run: RunData, path: Path, dpi: int) -> Path:
+    t, psi = _series(run, "t"), _series(run, "psi")
+    fig = _figure()
+    ax = fig.add_subplot()
+    ax.plot(t, psi, color="C0", lw=1.5)
+    for level in (-0.5 * np.pi, 0.0, 0.5 * np.pi):
+        ax.axhline(level, color="0.6", lw=0.8, ls="--" if level else ":")
+    ax.set_ylim(-0.55 * np.pi, 0.55 * np.pi)
+    ax.set_xlabel("t")
+    ax.set_ylabel(r"$\psi$ [rad]")
+    ax.secondary_yaxis("right", functions=(np.degrees, np.radians)).set_ylabel(r"$\psi$ [deg]")
+    ax.set_title(_title(run, "inclination angle"))
+    return _save(fig, path, dpi)
+
+
+def _plot_deformation(run: RunData, path: Path, dpi: int) -> Path:
+    fig = _figure()
+    ax = fig.add_subplot()
+    ax.plot(_series(run, "t"), _series(run, "D"), color="C1", lw=1.5)
+    ax.set_xlabel("t")
+    ax.set_ylabel("D")
+    ax.set_title(_title(run, "deformation parameter"))
+    return _save(fig, path, dpi)
+
+
+def _plot_stress(run: RunData, path: Path, dpi: int) -> Path:
+    t = _series(run, "t")
+    fig = _figure()
+    ax = fig.add_subplot()
+    plotted = 0
+    for key, label in (("S_xz", r"$S_{xz}$"), ("N1", r"$N_1$"), ("N2", r"$N_2$")):
+        y = np.asarray(run.series.get(key, np.full_like(t, np.nan)), dtype=float)
+        if np.any(np.isfinite(y)):
+            ax.plot(t, y, lw=1.5, label=label)  # NaN entries leave gaps
+            plotted += 1
+    if plotted:
+        ax.axhline(0.0, color="0.6", lw=0.8, ls=":")
+        ax.legend(loc="best")
+    else:
+        note = "stress undefined at chi = 0"
+        ax.text(0.5, 0.5, note, ha="center", va="center", transform=ax.transAxes, color="C3")
+        finite = t[np.isfinite(t)]
+        if finite.size and finite.min() < finite.max():
+            ax.set_xlim(finite.min(), finite.max())
+    ax.set_xlabel("t")
+    ax.set_ylabel("particle stress")
+    ax.set_title(_title(run, "rheology"))
+    return _save(fig, path, dpi)
+
+
+def _plot_orbit(run: RunData, path: Path, dpi: int) -> Path:
+    t, psi, D = _series(run, "t"), _series(run, "psi"), _series(run, "D")
+    fig = _figure()
+    ax = fig.add_subplot()
+    ax.plot(psi, D, color="0.75", lw=0.8, zorder=1)
+    points = ax.scatter(psi, D, c=t, s=10, cmap="viridis", zorder=2)
+    fig.colorbar(points, ax=ax, label="t")
+    ax.plot(psi[-1:], D[-1:], "o", mfc="none", mec="C3", ms=9, label="final")
+    ax.set_xlabel(r"$\psi$ [rad]")
+    ax.set_ylabel("D")
+    ax.legend(loc="best")
+    ax.set_title(_title(run, "D–ψ orbit"))
+    return _save(fig, path, dpi)
+
+
+def _plot_section(
+    run: RunData,
+    path: Path,
+    dpi: int,
+    section: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    labels: tuple[str, str],
+) -> Path:
+    fig = _figure((5.2, 5.2))
+    ax = fig.add_subplot()
+    if run.n_saved > 1:
+        ax.plot(*section(run.coefficients[0]), color="0.6", lw=1.0, ls="--", label="initial")
+    ax.plot(*section(run.coefficients[-1]), color="C0", lw=1.8, label="final")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel(labels[0])
+    ax.set_ylabel(labels[1])
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper right")
+    ax.set_title(_title(run, f"{labels[0]}–{labels[1]} section"), fontsize="medium")
+    return _save(fig, path, dpi)
+
+
+def _continuous_axes(axes: np.ndarray) -> np.ndarray:
+    """Flip principal-axis vectors so each one varies continuously in time."""
+    out = np.array(axes, dtype=float)
+    for i in range(1, out.shape[0]):
+        dots = np.einsum("kj,kj->k", out[i], out[i - 1])
+        out[i, dots < 0] *= -1.0
+    return out
+
+
+def _plot_axes_sphere(run: RunData, path: Path, dpi: int) -> Path:
+    axes = _continuous_axes(_series(run, "axes"))
+    fig = _figure((6.0, 6.0))
+    ax = fig.add_subplot(projection="3d")
+    u, w = np.meshgrid(np.linspace(0, 2 * np.pi, 25), np.linspace(0, np.pi, 13))
+    sphere = (np.cos(u) * np.sin(w), np.sin(u) * np.sin(w), np.cos(w))
+    ax.plot_wireframe(*sphere, color="0.85", lw=0.4)
+    for k, name in enumerate(("long", "middle", "short")):
+        a = axes[:, k]
+        ax.plot(a[:, 0], a[:, 1], a[:, 2], color=f"C{k}", lw=1.5, label=f"{name} axis")
+        ax.scatter(*a[-1], color=f"C{k}", s=25)
+    ax.set_xlabel("x")
+    ax.set_ylabel("y")
+    ax.set_zlabel("z")
+    ax.set_box_aspect((1, 1, 1))
+    ax.legend(loc="upper left", fontsize="small")
+    ax.set_title(_title(run, "principal axes"), fontsize="medium")
+    return _save(fig, path, dpi)
+
+
+# ---------------------------------------------------------------------- entry
+def plot_run(run: RunData, outdir: str | Path, prefix: str = "", dpi: int = 120) -> list[Path]:
+    """Write the diagnostic PNG figures of a run.
+
+    Parameters
+    ----------
+    run : RunData
+        The run (series and shapes at the saved steps).
+    outdir : str or Path
+        Directory for the figures; created if needed.
+    prefix : str
+        Prepended to every file name.
+    dpi : int
+        Resolution of the PNG files.
+
+    Returns
+    -------
+    list of Path
+        In this order: ``psi, deformation, stress, orbit, shape_xz, shape_xy`` and, for runs
+        that leave the shear plane (see :func:`is_out_of_plane`), ``axes_sphere``.
+
+    Raises
+    ------
+    ValueError
+        If the run has no saved steps or lacks a needed series.
+    """
+    if run.n_saved == 0:
+        raise ValueError("run has no saved steps to plot")
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+
+    def target(name: str) -> Path:
+        return outdir / f"{prefix}{name}.png"
+
+    paths = [
+        _plot_psi(run, target("psi"), dpi),
+        _plot_deformation(run, target("deformation"), dpi),
+        _plot_stress(run, target("stress"), dpi),
+        _plot_orbit(run, target("orbit"), dpi),
+        _plot_section(run, target("shape_xz"), dpi, section_xz, ("x", "z")),
+        _plot_section(run, target("shape_xy"), dpi, section_xy, ("x", "y")),
+    ]
+    if is_out_of_plane(run):
+        paths.append(_plot_axes_sphere(run, target("axes_sphere"), dpi))
+    logger.info("wrote %d figures to %s", len(paths), outdir)
+    return paths

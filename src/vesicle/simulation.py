@@ -1,0 +1,264 @@
+"""The time-dependent run: stepping, saved diagnostics, checkpoints, restart and stop conditions.
+
+:func:`simulate` drives :class:`vesicle.dynamics.Integrator` from a start shape (or a checkpoint)
+to ``t_end``, saving diagnostics every ``save_every`` time units (steps land exactly on save
+times) and writing the whole run file atomically every ``checkpoint_every`` wall seconds, at the
+end, and when interrupted (``KeyboardInterrupt``, which the CLI also raises on SIGTERM).  A run
+resumed from its file continues bit-identically: the checkpoint holds the state, the proposed
+step and the tension warm start with which the current state was evaluated.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+from .analysis import classify_regime, diagnose
+from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
+from .flows import FLOWS
+from .io import SERIES, RunData, write_run
+from .surface import Shape
+
+__all__ = ["SimulationError", "load_parameters", "simulate", "summarize"]
+
+log = logging.getLogger(__name__)
+
+Progress = Callable[[dict], None]
+
+
+class SimulationError(RuntimeError):
+    """The run could not continue (step size underflow, solver failure); a checkpoint exists."""
+
+
+def load_parameters(run: RunData) -> RunParameters:
+    """The :class:`RunParameters` stored in a run file."""
+    names = RunParameters.__dataclass_fields__
+    return RunParameters(**{k: v for k, v in run.parameters.items() if k in names})
+
+
+def _new_run(params: RunParameters, shape: Shape) -> RunData:
+    parameters = params.to_dict()
+    parameters["flow_gradient"] = FLOWS[params.flow]().matrix.tolist()
+    series = {k: np.zeros((0, *shp)) for k, shp in SERIES.items()}
+    series["spectrum"] = np.zeros((0, params.degree + 1))
+    coefficients = np.zeros((0, params.degree + 1, params.degree + 1), complex)
+    return RunData(parameters, series, coefficients)
+
+
+def _record(run: RunData, ev: Evaluation, state: StepState, dt: float) -> float:
+    """Append the diagnostics of the evaluated state; returns its psi."""
+    d = diagnose(ev.shape)
+    stress = ev.flow.stress
+    row = {
+        "t": state.t,
+        "psi": d.psi,
+        "D": d.D,
+        "L": d.lengths,
+        "axes": d.axes,
+        "area": d.area,
+        "volume": d.volume,
+        "reduced_volume": d.reduced_volume,
+        "bending_energy": d.bending_energy,
+        "S": stress.S,
+        "S_xz": stress.S_xz,
+        "N1": stress.N1,
+        "N2": stress.N2,
+        "dt": dt,
+        "outer_iterations": ev.flow.outer_iterations,
+        "inner_iterations": ev.flow.inner_iterations,
+        "centroid": d.centroid,
+        "area_correction": state.corrections["area"],
+        "volume_correction": state.corrections["volume"],
+        "spectrum": d.spectrum,
+    }
+    for key, value in row.items():
+        run.series[key] = np.concatenate([run.series[key], np.asarray(value, float)[None]])
+    run.coefficients = np.concatenate([run.coefficients, ev.shape.coefficients[None]])
+    return d.psi
+
+
+class _Checkpointer:
+    def __init__(self, out: Path | None, every: float):
+        self.out, self.every, self.last = out, every, time.perf_counter()
+
+    def __call__(self, run: RunData, state: StepState, force: bool = False) -> None:
+        if self.out is None or not (force or time.perf_counter() - self.last >= self.every):
+            return
+        run.checkpoint = state.to_checkpoint()
+        write_run(self.out, run)
+        self.last = time.perf_counter()
+        log.debug("checkpoint at t=%.5f written to %s", state.t, self.out)
+
+
+def simulate(
+    params: RunParameters,
+    out: str | Path | None = None,
+    progress: Progress | None = None,
+    start: Shape | None = None,
+    resume: RunData | None = None,
+) -> RunData:
+    """Run the time-dependent simulation; returns the run data (also written to ``out``).
+
+    Parameters
+    ----------
+    params : RunParameters
+    out : path, optional
+        HDF5 run file, written at checkpoints, at the end and on interruption.
+    progress : callable, optional
+        Called after every accepted step with ``t, dt, psi, steps, rejected, outer, inner``.
+    start : Shape, optional
+        Start shape instead of the spheroid of ``params.v`` (tilt and perturbation still apply).
+    resume : RunData, optional
+        A run file's content to continue from its checkpoint (``params.t_end`` may extend it).
+    """
+    integ = Integrator(params)
+    if resume is not None:
+        if resume.checkpoint is None:
+            raise ValueError("the run file has no checkpoint to resume from")
+        run, state = resume, StepState.from_checkpoint(resume.checkpoint)
+        integ.previous_error = state.previous_error
+        run.parameters["t_end"] = params.t_end
+        current = integ.evaluate(state.coefficients, state.sigma_in)
+        log.info("resuming at t=%.6f (step %d)", state.t, state.steps)
+    else:
+        shape = initial_shape(params, start)
+        run = _new_run(params, shape)
+        state = StepState(
+            t=0.0,
+            coefficients=shape.coefficients,
+            dt=params.dt0,
+            area0=shape.area,
+            volume0=shape.volume,
+        )
+        current = integ.evaluate(state.coefficients, None)
+    checkpoint = _Checkpointer(Path(out) if out is not None else None, params.checkpoint_every)
+    try:
+        _loop(params, integ, run, state, current, checkpoint, progress)
+    except KeyboardInterrupt:
+        log.warning("interrupted at t=%.6f; checkpoint written to %s", state.t, out)
+        checkpoint(run, state, force=True)
+        raise
+    except Exception:
+        checkpoint(run, state, force=True)
+        raise
+    checkpoint(run, state, force=True)
+    run.checkpoint = state.to_checkpoint()
+    return run
+
+
+def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
+    eps = 1e-12 * max(params.t_end, 1.0)
+    psi = float(run.series["psi"][-1]) if run.n_saved else float("nan")
+    dt_taken = 0.0
+    while True:
+        if state.t >= state.next_save - eps:
+            psi = _record(run, current, state, dt_taken)
+            state.next_save = state.t + params.save_every
+        if state.t >= params.t_end - eps or _should_stop(params, run, current):
+            break
+        dt = min(state.dt, state.next_save - state.t, params.t_end - state.t)
+        result = integ.step(state.coefficients, dt, current)
+        if not result.accepted:
+            state.rejected += 1
+            state.dt = result.dt_next
+            if dt <= params.dt_min * (1 + 1e-9):
+                raise SimulationError(
+                    f"step size underflow at t={state.t:.6g}: error {result.error:.2e} at "
+                    f"dt = dt_min = {params.dt_min:g}"
+                )
+            continue
+        state.t += dt
+        state.steps += 1
+        state.dt = result.dt_next
+        state.previous_error = integ.previous_error
+        dt_taken = dt
+        shape, changed = post_step(Shape(result.y_new, params.grid), state, params)
+        state.coefficients = shape.coefficients
+        if result.final is not None and not changed:
+            current, state.sigma_in = result.final, result.sigma
+        else:
+            state.sigma_in = result.sigma if result.final is None else result.final.flow.sigma
+            current = integ.evaluate(state.coefficients, state.sigma_in)
+            state.corrections["evaluations"] += 1
+        if progress is not None:
+            progress(
+                {
+                    "t": state.t,
+                    "dt": dt,
+                    "psi": psi,
+                    "steps": state.steps,
+                    "rejected": state.rejected,
+                    "outer": current.flow.outer_iterations,
+                    "inner": current.flow.inner_iterations,
+                }
+            )
+        checkpoint(run, state)
+
+
+def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> bool:
+    if params.steady_tol > 0 and np.max(np.abs(current.rate)) < params.steady_tol:
+        log.info("steady state: max |dr/dt| coefficient below %g", params.steady_tol)
+        return True
+    if params.periods > 0 and run.n_saved >= 5:
+        regime = classify_regime(run.series["t"], run.series["psi"], run.series["axes"], tail=1.0)
+        if regime.minima.size > params.periods:
+            log.info("%d periods of psi completed", params.periods)
+            return True
+    return False
+
+
+def summarize(run: RunData) -> dict:
+    """Regime, period, final shape, stress averages and drift of a run (JSON-able).
+
+    ``mean`` averages ``S_xz, N1, N2`` over whole periods (between the first and last psi
+    minimum) when the run is periodic, else over the last quarter of the saved steps.
+    ``drift`` is the relative change of area and volume from the first to the last saved step;
+    ``corrections`` the total relative amounts the drift control removed.
+    """
+    s = run.series
+    t = s["t"]
+    regime = classify_regime(t, s["psi"], s["axes"])
+    if regime.minima.size >= 2:
+        window = (t >= regime.minima[0]) & (t <= regime.minima[-1])
+    else:
+        window = t >= t[0] + 0.75 * (t[-1] - t[0])
+
+    def mean(name):
+        y, x = s[name][window], t[window]
+        if np.all(np.isnan(y)):
+            return None
+        return float(np.trapezoid(y, x) / (x[-1] - x[0])) if x.size > 1 else float(y[-1])
+
+    ck = run.checkpoint or {}
+    corrections = ck.get("corrections", {})
+    return {
+        "regime": regime.name,
+        "regime_detail": regime.detail,
+        "period": regime.period,
+        "t_final": float(t[-1]),
+        "saved_steps": run.n_saved,
+        "steps": ck.get("steps"),
+        "rejected_steps": ck.get("rejected"),
+        "final": {
+            "psi": float(s["psi"][-1]),
+            "D": float(s["D"][-1]),
+            "axes": s["L"][-1].tolist(),
+            "bending_energy": float(s["bending_energy"][-1]),
+            "reduced_volume": float(s["reduced_volume"][-1]),
+        },
+        "mean": {k: mean(k) for k in ("S_xz", "N1", "N2")},
+        "drift": {
+            "area": float(s["area"][-1] / s["area"][0] - 1.0),
+            "volume": float(s["volume"][-1] / s["volume"][0] - 1.0),
+        },
+        "corrections": {
+            "area": corrections.get("area"),
+            "volume": corrections.get("volume"),
+            "recentered": corrections.get("recentered"),
+        },
+        "parameters": run.parameters,
+    }

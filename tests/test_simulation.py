@@ -1,0 +1,153 @@
+"""Time-dependent runs: restart, interruption, relaxation, drift control, diagnostics."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import vesicle as vs
+from vesicle.analysis import classify_regime, diagnose, recentered
+from vesicle.dynamics import RunParameters, rate_of_change, restore_area_volume
+from vesicle.io import read_run, write_run
+from vesicle.simulation import load_parameters, simulate, summarize
+from vesicle.sphere.rotation import rotation_matrix
+
+FAST = {"grid": 12, "degree": 4, "save_every": 0.02, "dt0": 1e-3}
+
+
+def params(**changes):
+    return RunParameters(**{**FAST, "t_end": 0.06, **changes})
+
+
+def test_restart_is_bit_identical(tmp_path):
+    straight = simulate(params(t_end=0.06), out=tmp_path / "a.h5")
+    simulate(params(t_end=0.04), out=tmp_path / "b.h5")  # a save time: same step sequence
+    first = read_run(tmp_path / "b.h5")
+    resumed = simulate(params(t_end=0.06), out=tmp_path / "b.h5", resume=first)
+    for key, value in straight.series.items():
+        np.testing.assert_array_equal(resumed.series[key], value, err_msg=key)
+    np.testing.assert_array_equal(resumed.coefficients, straight.coefficients)
+    np.testing.assert_array_equal(read_run(tmp_path / "b.h5").coefficients, straight.coefficients)
+
+
+def test_interrupted_run_resumes_exactly(tmp_path):
+    straight = simulate(params())
+    calls = []
+
+    def interrupt(info):
+        calls.append(info)
+        if len(calls) == 4:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate(params(), out=tmp_path / "c.h5", progress=interrupt)
+    partial = read_run(tmp_path / "c.h5")
+    assert partial.checkpoint["steps"] == 4 and partial.checkpoint["t"] < 0.06
+    resumed = simulate(load_parameters(partial), resume=partial)
+    np.testing.assert_array_equal(resumed.coefficients, straight.coefficients)
+    np.testing.assert_array_equal(resumed.series["S_xz"], straight.series["S_xz"])
+
+
+def test_interrupted_write_never_corrupts_the_file(tmp_path, monkeypatch):
+    run = simulate(params(t_end=0.02))
+    path = tmp_path / "d.h5"
+    write_run(path, run)
+    before = path.read_bytes()
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    import h5py
+
+    monkeypatch.setattr(h5py.Group, "create_dataset", broken)
+    with pytest.raises(OSError, match="disk full"):
+        write_run(path, run)
+    monkeypatch.undo()
+    assert path.read_bytes() == before
+    assert read_run(path).n_saved == run.n_saved
+
+
+def test_file_carries_parameters_and_version(tmp_path):
+    simulate(params(t_end=0.02, lam=3.0), out=tmp_path / "e.h5")
+    data = read_run(tmp_path / "e.h5")
+    assert data.attributes["vesicle_version"] == vs.__version__
+    assert data.parameters["lam"] == 3.0 and data.parameters["flow_gradient"][0][2] == 1.0
+    assert load_parameters(data) == params(t_end=0.02, lam=3.0)
+
+
+def test_relaxation_at_rest_lowers_bending_energy():
+    run = simulate(params(chi=0.0, t_end=0.1, save_every=0.01))
+    energy = run.series["bending_energy"]
+    assert np.all(np.diff(energy) < 0), energy
+    assert np.isnan(run.series["S_xz"]).all()
+
+
+def test_drift_control_holds_area_and_volume():
+    run = simulate(params(t_end=0.06))
+    area, volume = run.series["area"], run.series["volume"]
+    assert np.abs(area / area[0] - 1).max() < 1e-6
+    assert np.abs(volume / volume[0] - 1).max() < 1e-6
+    summary = summarize(run)
+    assert summary["corrections"]["area"] >= 0 and summary["drift"]["area"] < 1e-6
+
+
+def test_rate_of_change_of_a_rigid_rotation_matches_rotated_shape():
+    """dr/dt for u = w x x equals the time derivative of the rotated radius function."""
+    shape = vs.Shape.ellipsoid(1.2, 0.9, 0.8, grid=16, degree=8)
+    w = np.array([0.0, 0.7, 0.0])
+    u = np.cross(w[:, None, None], shape.x, axis=0)
+    rate = rate_of_change(shape, u, 8)
+    h = 1e-5
+    plus = shape.rotated(rotation_matrix("y", 0.7 * h)).coefficients
+    minus = shape.rotated(rotation_matrix("y", -0.7 * h)).coefficients
+    np.testing.assert_allclose(rate, (plus - minus) / (2 * h), atol=1e-7)
+
+
+def test_restore_area_volume():
+    shape = vs.Shape.spheroid(0.9, grid=16, degree=8)
+    bumped = shape.scaled(1.001).perturbed(0.002, seed=3)
+    fixed, da, dv = restore_area_volume(bumped, shape.area, shape.volume, 8)
+    assert fixed.area == pytest.approx(shape.area, rel=1e-12)
+    assert fixed.volume == pytest.approx(shape.volume, rel=1e-12)
+    assert abs(da) > 1e-4 and abs(dv) > 1e-4
+
+
+def test_recentering_and_diagnostics():
+    shape = vs.Shape.ellipsoid(1.3, 0.9, 0.8, grid=24, degree=12).rotated(
+        rotation_matrix("y", -0.4)
+    )
+    d = diagnose(shape)
+    assert d.psi == pytest.approx(0.4, abs=1e-8)
+    np.testing.assert_allclose(d.lengths, [2.6, 1.8, 1.6], atol=2e-4)
+    assert d.D == pytest.approx((2.6 - 1.6) / (2.6 + 1.6), abs=1e-4)
+    shifted = vs.Shape.from_radius(
+        lambda t, p: 0.05 * np.cos(t) + np.sqrt(1 - 0.0025 * np.sin(t) ** 2), grid=24, degree=16
+    )
+    np.testing.assert_allclose(recentered(shifted).radius, 1.0, atol=1e-10)
+
+
+def test_regime_classification_on_synthetic_series():
+    t = np.linspace(0, 20, 2001)
+    tt = classify_regime(t, 0.3 + 0.1 * np.exp(-2 * t) * np.cos(3 * t))
+    assert tt.name == "TT"
+    tr = classify_regime(t, 0.4 * np.cos(2 * np.pi * t / 2.5))
+    assert tr.name == "TR" and tr.period == pytest.approx(2.5, rel=1e-2)
+    angle = np.pi / 2 - (np.pi * t / 3.0) % np.pi  # half a turn every 3 time units
+    tu = classify_regime(t, angle)
+    assert tu.name == "TU" and tu.period == pytest.approx(3.0, rel=1e-2)
+    assert classify_regime(t[:3], t[:3]).name == "undetermined"
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    st.sampled_from(["v", "lam", "t_end", "save_every", "rtol", "dt0"]),
+    st.one_of(st.floats(max_value=0.0), st.just(float("nan")), st.just(float("inf"))),
+)
+def test_bad_run_parameters_are_refused(name, value):
+    with pytest.raises(ValueError, match=name if name != "v" else "reduced volume|v must"):
+        RunParameters(**{name: value})
+
+
+def test_too_coarse_grid_is_refused():
+    with pytest.raises(ValueError, match="n_theta > N"):
+        RunParameters(grid=8, degree=8)
