@@ -18,6 +18,7 @@ from ..io import RunData, read_run
 from ..plots import plot_run
 from ..simulation import SimulationError, load_parameters, simulate, summarize
 from ..solver import SolverError
+from ..steady import NewtonError, steady_tank_treading
 from ..surface import ShapeError
 from ..vtk import export_vtk
 from .base import fail, main
@@ -48,10 +49,21 @@ def _load(path: str) -> RunData:
         fail(str(err))
 
 
-def _start_shape(init: str):
-    """``spheroid`` or ``FILE[:INDEX]`` (a saved step of another run, default the last)."""
+def _start_shape(init: str, options: dict):
+    """``spheroid``, ``tt`` (the steady tank-treading shape by Newton) or ``FILE[:INDEX]``."""
     if init == "spheroid":
         return None
+    if init == "tt":
+        try:
+            return steady_tank_treading(
+                options["v"],
+                options["lam"],
+                options["chi"],
+                degree=options["degree"],
+                grid=options["grid"],
+            ).shape
+        except (ValueError, NewtonError) as err:
+            fail(f"--init tt: {err}")
     path, _, index = init.partition(":")
     if not Path(path).exists():
         fail(f"--init must be 'spheroid' or FILE[:INDEX] of a run file; {path!r} does not exist")
@@ -164,7 +176,7 @@ def run(ctx, resume, plot, progress, **options) -> None:
             out, start = resume, None
         else:
             data, out = None, options.pop("out")
-            start = _start_shape(options["init"])
+            start = _start_shape(options["init"], options)
             options["drift_control"] = not options.pop("no_drift_control")
             params = RunParameters(**{k: v for k, v in options.items() if k != "out"})
     except (ValueError, ShapeError) as err:

@@ -1,0 +1,213 @@
+"""Linear stability of steady tank-treading and the critical viscosity ratio (SPEC §9).
+
+Admissible perturbations keep A and V: they lie orthogonal to ``z_1, z_2``, the Gram–Schmidt
+orthonormalisation of ``dA/da``, ``dV/da``.  With ``Q = I - z_1 z_1^T - z_2 z_2^T`` the
+eigenvalues ``mu`` of ``Q^T M Q`` other than the trivial zeros are the growth exponents
+``-i omega`` of modes ``e^{-i omega t}``: ``omega_R = -Im mu``, ``omega_I = Re mu``
+(``omega_I > 0`` unstable).  For ``modes="general"`` the full basis (2.1) is used (all degrees,
+cosine and sine parts) and the three translations (degree 1) are excluded as well: a translated
+vesicle drifts with the shear, a neutral mode the re-centring of the simulations removes.
+"""
+
+from __future__ import annotations
+
+import logging
+from concurrent.futures import Executor
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .dynamics import rate_of_change
+from .solver import SolverTolerances, solve_flow
+from .sphere.transforms import transform
+from .steady import NewtonError, SteadyResult, _gradients, steady_tank_treading
+from .surface import Shape
+from .theory import misbah_critical_lambda
+
+__all__ = ["CriticalResult", "FullBasis", "StabilityResult", "critical_lambda", "stability"]
+
+log = logging.getLogger(__name__)
+
+
+class FullBasis:
+    """Real coefficients of ``Pbar_lm cos(m phi)`` (all l, m) and ``Pbar_lm sin(m phi)`` (m > 0).
+
+    ``cos`` coefficients are ``w_m Re r_lm`` and ``sin`` ones ``-w_m Im r_lm``; the symmetric
+    basis is a coordinate subspace of this one.
+    """
+
+    def __init__(self, degree: int):
+        self.degree = degree
+        cos = [(l, m, 0) for l in range(degree + 1) for m in range(l + 1)]
+        sin = [(l, m, 1) for l in range(degree + 1) for m in range(1, l + 1)]
+        self.index = cos + sin
+        self.l = np.array([i[0] for i in self.index])
+        self.m = np.array([i[1] for i in self.index])
+        self.part = np.array([i[2] for i in self.index])
+        self.weight = np.where(self.m == 0, 1.0, 2.0)
+
+    @property
+    def size(self) -> int:
+        return len(self.index)
+
+    def to_coefficients(self, a: np.ndarray) -> np.ndarray:
+        c = np.zeros((self.degree + 1, self.degree + 1), dtype=complex)
+        a = np.asarray(a, float) / self.weight
+        re, im = self.part == 0, self.part == 1
+        c[self.l[re], self.m[re]] += a[re]
+        c[self.l[im], self.m[im]] -= 1j * a[im]
+        return c
+
+    def from_coefficients(self, c: np.ndarray) -> np.ndarray:
+        c = np.asarray(c)[self.l, self.m]
+        return self.weight * np.where(self.part == 0, c.real, -c.imag)
+
+    def functions(self, grid) -> np.ndarray:
+        T = transform(grid.n_theta, self.degree)
+        return T.synthesis(np.stack([self.to_coefficients(e) for e in np.eye(self.size)]))
+
+
+@dataclass(frozen=True, eq=False)
+class StabilityResult:
+    """Eigen-analysis of a steady state: ``omega`` sorted by ``omega_I`` (most unstable first)."""
+
+    omega: np.ndarray  # (k, 2): (omega_R, omega_I)
+    modes: np.ndarray  # (k, N+1, N+1) complex coefficient perturbations (real part is the mode)
+    basis: str
+
+    @property
+    def most_unstable(self) -> tuple[float, float]:
+        """``(omega_R, omega_I)`` of the mode with the largest growth rate (``omega_R >= 0``)."""
+        w_r, w_i = self.omega[0]
+        return float(abs(w_r)), float(w_i)
+
+
+def _full_jacobian(result: SteadyResult, basis: FullBasis, executor: Executor | None) -> np.ndarray:
+    tol = result.params["solver_tolerances"]
+    from_shape = result.shape.with_degree(basis.degree)
+    a0 = basis.from_coefficients(from_shape.coefficients)
+    grid = result.shape.grid.n_theta
+    spec = (result.lam, result.chi, basis.degree, grid, tuple(tol))
+    base = _full_adot(spec, a0)
+    h = 1e-4 * max(1.0, abs(a0[0]))
+    columns = [a0 + h * e for e in np.eye(basis.size)]
+    if executor is None:
+        values = [_full_adot(spec, c) for c in columns]
+    else:
+        values = list(executor.map(_full_adot, [spec] * basis.size, columns))
+    return (np.array(values).T - base[:, None]) / h
+
+
+def _full_adot(spec: tuple, a: np.ndarray) -> np.ndarray:
+    lam, chi, degree, grid, tol = spec
+    basis = FullBasis(degree)
+    shape = Shape(basis.to_coefficients(a), grid)
+    flow = solve_flow(shape, lam=lam, chi=chi, tolerances=SolverTolerances(*tol))
+    return basis.from_coefficients(rate_of_change(shape, flow.u, degree))
+
+
+def stability(
+    result: SteadyResult, modes: str = "symmetric", executor: Executor | None = None
+) -> StabilityResult:
+    """Growth exponents of perturbations of a steady tank-treading state (SPEC §9)."""
+    if modes == "symmetric":
+        basis, M = result.basis, result.jacobian
+        if M is None:
+            raise ValueError("the steady result carries no Jacobian (Newton did not converge)")
+        g = result.gradients
+        extra = np.zeros((0, basis.size))
+    elif modes == "general":
+        basis = FullBasis(result.basis.degree)
+        M = _full_jacobian(result, basis, executor)
+        phi = basis.functions(result.shape.grid)
+        g = _gradients(result.shape, basis, phi)
+        extra = np.eye(basis.size)[basis.l == 1]  # translations
+    else:
+        raise ValueError("modes must be 'symmetric' or 'general'")
+    Z, _ = np.linalg.qr(np.concatenate([g, extra]).T)
+    Q = np.eye(basis.size) - Z @ Z.T
+    mu, vec = np.linalg.eig(Q.T @ M @ Q)
+    # drop the trivial zeros: eigenvectors in the constrained span (killed by Q)
+    inside = np.linalg.norm(Q @ vec, axis=0)
+    keep = np.argsort(inside)[Z.shape[1] :]
+    mu, vec = mu[keep], vec[:, keep]
+    omega = np.stack([-mu.imag, mu.real], axis=1)
+    order = np.lexsort((-np.abs(omega[:, 0]), -omega[:, 1]))
+    omega, vec = omega[order], vec[:, order]
+    shapes = np.stack(
+        [basis.to_coefficients(v.real) + 1j * basis.to_coefficients(v.imag) for v in vec.T]
+    )
+    log.info("most unstable %s mode: omega = (%.4g, %.4g)", modes, *omega[0])
+    return StabilityResult(omega, shapes, modes)
+
+
+@dataclass(frozen=True)
+class CriticalResult:
+    """``lambda_c`` where the largest ``omega_I`` crosses zero, and the bifurcation type."""
+
+    lambda_c: float
+    bifurcation: str  # "saddle-node" (real crossing) or "hopf" (complex pair)
+    omega_R: float
+    history: tuple[tuple[float, float, float], ...]  # (lam, omega_R, omega_I) evaluated
+
+
+def critical_lambda(
+    v: float,
+    chi: float,
+    degree: int = 8,
+    grid: int = 32,
+    lam0: float | None = None,
+    factor: float = 1.5,
+    xtol: float = 1e-3,
+    executor: Executor | None = None,
+    progress=None,
+) -> CriticalResult:
+    """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
+
+    Starts at ``lam0`` (default: the leading-order estimate, at least 1), multiplies or divides
+    by ``factor`` until ``max omega_I`` changes sign, then Brent's method; each evaluation
+    starts Newton from the nearest solution found so far.
+    """
+    history: list[tuple[float, float, float]] = []
+    solutions: dict[float, SteadyResult] = {}
+
+    def growth(lam: float) -> float:
+        start = None
+        if solutions:
+            nearest = min(solutions, key=lambda x: abs(np.log(x / lam)))
+            start = solutions[nearest].a
+        try:
+            steady = steady_tank_treading(
+                v, lam, chi, degree, grid, initial=start, executor=executor
+            )
+        except NewtonError as err:
+            raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err
+        solutions[lam] = steady
+        w_r, w_i = stability(steady).most_unstable
+        history.append((lam, w_r, w_i))
+        log.info("lam = %.5g: omega = (%.4g, %.4g)", lam, w_r, w_i)
+        if progress is not None:
+            progress({"lam": lam, "omega_R": w_r, "omega_I": w_i})
+        return w_i
+
+    lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(v))
+    lo, g_lo = lam, growth(lam)
+    hi, g_hi = lo, g_lo
+    for _ in range(12):
+        if g_lo * g_hi < 0:
+            break
+        if g_hi < 0:  # stable: raise lambda
+            lo, g_lo = hi, g_hi
+            hi = hi * factor
+            g_hi = growth(hi)
+        else:
+            hi, g_hi = lo, g_lo
+            lo = lo / factor
+            g_lo = growth(lo)
+    else:
+        raise RuntimeError("could not bracket lambda_c: max omega_I did not change sign")
+    lam_c = brentq(growth, min(lo, hi), max(lo, hi), xtol=xtol)
+    nearest = min(history, key=lambda h: abs(h[0] - lam_c))
+    kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"
+    return CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history))

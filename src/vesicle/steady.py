@@ -1,0 +1,310 @@
+"""Steady tank-treading shapes by Newton–Raphson (SPEC §8).
+
+The steady TT shape is symmetric under inversion through the origin and under ``y -> -y``, so
+``r = sum_{l even <= N} sum_{m=0..l} a_lm Pbar_lm(cos theta) cos(m phi)`` with real ``a_lm``
+(:class:`SymmetricBasis`).  With ``adot(a)`` the projection of the filtered ``dr/dt`` onto that
+basis, the steady state solves
+
+    adot(a) - lambda_A dA/da - lambda_V dV/da = 0,   A(a) = 4 pi,   V(a) = 4 pi v / 3,
+
+the two multipliers absorbing the discrete dynamics' small failure to conserve A and V exactly.
+The Jacobian block ``M = d adot / d a`` is formed by forward differences, one velocity solve per
+column, through any :class:`concurrent.futures.Executor` (serial by default).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from concurrent.futures import Executor
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .analysis import diagnose
+from .dynamics import rate_of_change
+from .rheology import ParticleStress
+from .solver import SolverTolerances, solve_flow
+from .sphere.rotation import rotation_matrix
+from .sphere.transforms import transform
+from .surface import Shape, spheroid_axes
+from .theory import misbah_tt_inclination
+
+__all__ = ["NewtonError", "SteadyResult", "SymmetricBasis", "steady_tank_treading"]
+
+log = logging.getLogger(__name__)
+
+
+class NewtonError(RuntimeError):
+    """Newton did not converge; the last iterate is attached."""
+
+    def __init__(self, message: str, result: SteadyResult | None = None):
+        super().__init__(message)
+        self.result = result
+
+
+class SymmetricBasis:
+    """Coefficients ``a_lm`` (l even, 0 <= m <= l) of ``Pbar_lm cos(m phi)``, and conversions.
+
+    In the complex convention of :mod:`vesicle.sphere` these are ``r_lm = a_lm / w_m`` with
+    ``w_0 = 1``, ``w_m = 2`` (real ``r_lm``); odd degrees and sine parts are zero.
+    """
+
+    def __init__(self, degree: int):
+        if degree < 2:
+            raise ValueError(f"the symmetric basis needs degree >= 2, got {degree}")
+        self.degree = degree
+        self.index = [(l, m) for l in range(0, degree + 1, 2) for m in range(l + 1)]
+        self.l = np.array([i[0] for i in self.index])
+        self.m = np.array([i[1] for i in self.index])
+        self.weight = np.where(self.m == 0, 1.0, 2.0)
+
+    @property
+    def size(self) -> int:
+        return len(self.index)
+
+    def to_coefficients(self, a: np.ndarray) -> np.ndarray:
+        c = np.zeros((self.degree + 1, self.degree + 1), dtype=complex)
+        c[self.l, self.m] = np.asarray(a, float) / self.weight
+        return c
+
+    def from_coefficients(self, c: np.ndarray) -> np.ndarray:
+        """Project coefficients (any symmetry) onto the basis: ``a_lm = w_m Re r_lm``."""
+        return self.weight * np.real(np.asarray(c)[self.l, self.m])
+
+    def functions(self, grid) -> np.ndarray:
+        """The basis functions on a grid, (size, n_theta, n_phi)."""
+        T = transform(grid.n_theta, self.degree)
+        return T.synthesis(np.stack([self.to_coefficients(e) for e in np.eye(self.size)]))
+
+
+@dataclass(frozen=True, eq=False)
+class SteadyResult:
+    """A steady tank-treading state and the Newton history that found it."""
+
+    a: np.ndarray
+    multipliers: tuple[float, float]
+    shape: Shape
+    basis: SymmetricBasis
+    residual_history: tuple[float, ...]
+    converged: bool
+    jacobian: np.ndarray  # M = d adot / d a at the solution (basis coordinates)
+    gradients: np.ndarray  # (2, size): dA/da, dV/da
+    psi: float
+    D: float
+    axes: np.ndarray  # full lengths, descending
+    stress: ParticleStress
+    split: dict[str, ParticleStress]
+    v: float
+    lam: float
+    chi: float
+    seconds: float
+    solves: int
+    params: dict = field(default_factory=dict)
+
+    @property
+    def newton_iterations(self) -> int:
+        return len(self.residual_history) - 1
+
+    @property
+    def residual(self) -> float:
+        return self.residual_history[-1]
+
+
+def _gradients(shape: Shape, basis: SymmetricBasis, phi: np.ndarray) -> np.ndarray:
+    """``dA/da`` and ``dV/da``: ``delta A = int -2H (n.e_r) delta r dA``, ``delta V = int (n.e_r)
+    delta r dA``, integrated against each basis function."""
+    ner = np.einsum("i...,i...->...", shape.normal, shape.grid.unit_vectors[0])
+    gA = shape.integrate(-2.0 * shape.mean_curvature * ner * phi)
+    gV = shape.integrate(ner * phi)
+    return np.array([gA, gV])
+
+
+class _Problem:
+    """The steady-state equations for one parameter point."""
+
+    def __init__(self, v, lam, chi, degree, grid, tolerances, executor):
+        self.v, self.lam, self.chi = v, lam, chi
+        self.grid = grid
+        self.basis = SymmetricBasis(degree)
+        self.tol = tolerances
+        self.executor = executor
+        self.phi = self.basis.functions(Shape.sphere(grid=grid).grid)
+        self.solves = 0
+        self.area0, self.volume0 = 4.0 * np.pi, 4.0 * np.pi * v / 3.0
+
+    def shape(self, a: np.ndarray) -> Shape:
+        return Shape(self.basis.to_coefficients(a), self.grid)
+
+    def adot(self, a: np.ndarray, sigma0=None):
+        shape = self.shape(a)
+        flow = solve_flow(shape, lam=self.lam, chi=self.chi, tolerances=self.tol, sigma0=sigma0)
+        self.solves += 1
+        rate = rate_of_change(shape, flow.u, self.basis.degree)
+        return self.basis.from_coefficients(rate), flow
+
+    def jacobian(self, a: np.ndarray, base: np.ndarray, sigma0) -> np.ndarray:
+        h = 1e-4 * max(1.0, abs(a[0]))
+        columns = [a + h * e for e in np.eye(a.size)]
+        if self.executor is None:
+            values = [_adot_column(self._spec(), c, sigma0) for c in columns]
+        else:
+            values = list(
+                self.executor.map(_adot_column, [self._spec()] * a.size, columns, [sigma0] * a.size)
+            )
+        self.solves += a.size
+        return (np.array(values).T - base[:, None]) / h
+
+    def _spec(self) -> tuple:
+        return (self.lam, self.chi, self.basis.degree, self.grid, self.tol)
+
+
+def _adot_column(spec: tuple, a: np.ndarray, sigma0) -> np.ndarray:
+    """One Jacobian column's ``adot`` (module level so process pools can pickle it)."""
+    lam, chi, degree, grid, tol = spec
+    basis = SymmetricBasis(degree)
+    shape = Shape(basis.to_coefficients(a), grid)
+    flow = solve_flow(shape, lam=lam, chi=chi, tolerances=tol, sigma0=sigma0)
+    return basis.from_coefficients(rate_of_change(shape, flow.u, degree))
+
+
+def initial_guess(
+    v: float, lam: float, degree: int, grid: int, psi: float | None = None
+) -> np.ndarray:
+    """The spheroid of ``v`` tilted to ``psi`` (default: Misbah's leading-order TT angle, or
+    0.1 rad beyond its range) in the x-z plane, as symmetric coefficients."""
+    if psi is None:
+        psi = misbah_tt_inclination(v, lam)
+        psi = 0.1 if not np.isfinite(psi) else psi
+    a_ax, b_ax = spheroid_axes(v)
+    shape = Shape.ellipsoid(
+        a_ax, b_ax, b_ax, grid=grid, degree=degree, rotation=rotation_matrix("y", -psi)
+    ).scaled_to_area()
+    return SymmetricBasis(degree).from_coefficients(shape.coefficients)
+
+
+def steady_tank_treading(
+    v: float,
+    lam: float,
+    chi: float,
+    degree: int = 8,
+    grid: int = 32,
+    initial: np.ndarray | Shape | None = None,
+    tolerance: float = 1e-8,
+    max_iterations: int = 12,
+    solver_tolerances: SolverTolerances | None = None,
+    executor: Executor | None = None,
+    progress=None,
+) -> SteadyResult:
+    """Newton–Raphson for the steady tank-treading shape (SPEC §8).
+
+    Parameters
+    ----------
+    v, lam, chi : float
+        Reduced volume, viscosity ratio, shear rate.
+    degree, grid : int
+        Shape degree N and grid n_theta.
+    initial : array of symmetric coefficients, Shape, or None
+        Start (a neighbouring solution for continuation); default :func:`initial_guess`.
+    tolerance : float
+        Converged when the residual's max-norm is below ``tolerance`` (relative to ``chi`` for
+        the dynamic part).
+    solver_tolerances : SolverTolerances
+        Of each velocity solve; default 1e-8 (Schur) and 1e-9 (inner), tighter than SPEC's
+        1e-6/1e-7 so that the finite-difference Jacobian is clean.
+    executor : concurrent.futures.Executor, optional
+        Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
+    progress : callable, optional
+        Called after every Newton iteration with ``{"iteration", "residual", "seconds"}``.
+    """
+    if not (np.isfinite(v) and 0 < v <= 1) or not (np.isfinite(lam) and lam > 0):
+        raise ValueError(f"need 0 < v <= 1 and lam > 0, got v={v}, lam={lam}")
+    if not np.isfinite(chi) or chi == 0:
+        raise ValueError("steady tank-treading needs a finite, non-zero shear rate chi")
+    t0 = time.perf_counter()
+    tol = solver_tolerances or SolverTolerances(1e-8, 1e-9)
+    P = _Problem(float(v), float(lam), float(chi), degree, grid, tol, executor)
+    if initial is None:
+        a = initial_guess(v, lam, degree, grid)
+    elif isinstance(initial, Shape):
+        a = P.basis.from_coefficients(initial.with_degree(degree).coefficients)
+    else:
+        a = np.asarray(initial, float).copy()
+    mult = np.zeros(2)
+    history: list[float] = []
+    sigma = None
+    converged = False
+    for it in range(max_iterations + 1):
+        shape = P.shape(a)
+        rate, flow = P.adot(a, sigma)
+        sigma = flow.sigma
+        g = _gradients(shape, P.basis, P.phi)
+        G = np.concatenate([rate - mult @ g, [shape.area - P.area0, shape.volume - P.volume0]])
+        res = float(np.max(np.abs(G[:-2])) / abs(chi) + np.max(np.abs(G[-2:])))
+        history.append(res)
+        log.info("Newton %d: residual %.3e (%.1f s)", it, res, time.perf_counter() - t0)
+        if progress is not None:
+            progress({"iteration": it, "residual": res, "seconds": time.perf_counter() - t0})
+        if res < tolerance:
+            converged = True
+            break
+        if it == max_iterations:
+            break
+        M = P.jacobian(a, rate, sigma)
+        step = _newton_step(M, g, G)
+        a = a + step[: a.size]
+        mult = mult + step[a.size :]
+    # the Jacobian at the solution (for the stability analysis); the Newton steps neglected the
+    # multipliers' curvature terms lambda_A d2A/da2 (the multipliers are at the drift level)
+    M = P.jacobian(a, rate, sigma) if converged else None
+    result = _result(P, a, mult, history, converged, M, g, flow, t0)
+    if not converged:
+        raise NewtonError(
+            f"Newton did not converge in {max_iterations} iterations: residual "
+            f"history {', '.join(f'{r:.1e}' for r in history)}",
+            result,
+        )
+    return result
+
+
+def _newton_step(M: np.ndarray, g: np.ndarray, G: np.ndarray) -> np.ndarray:
+    n = M.shape[0]
+    J = np.zeros((n + 2, n + 2))
+    J[:n, :n] = M
+    J[:n, n:] = -g.T
+    J[n:, :n] = g
+    return np.linalg.solve(J, -G)
+
+
+def _result(P, a, mult, history, converged, M, g, flow, t0) -> SteadyResult:
+    shape = P.shape(a)
+    d = diagnose(shape)
+    split_flow = solve_flow(
+        shape, lam=P.lam, chi=P.chi, tolerances=P.tol, split=True, sigma0=flow.sigma
+    )
+    P.solves += 3
+    return SteadyResult(
+        a=a,
+        multipliers=(float(mult[0]), float(mult[1])),
+        shape=shape,
+        basis=P.basis,
+        residual_history=tuple(history),
+        converged=converged,
+        jacobian=M,
+        gradients=g,
+        psi=d.psi,
+        D=d.D,
+        axes=d.lengths,
+        stress=split_flow.stress,
+        split=split_flow.split,
+        v=P.v,
+        lam=P.lam,
+        chi=P.chi,
+        seconds=time.perf_counter() - t0,
+        solves=P.solves,
+        params={
+            "degree": P.basis.degree,
+            "grid": P.grid,
+            "solver_tolerances": [P.tol.schur, P.tol.inner],
+        },
+    )

@@ -1,0 +1,88 @@
+"""Steady tank-treading by Newton and its linear stability (SPEC §8, §9)."""
+
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+import pytest
+
+from vesicle.dynamics import RunParameters
+from vesicle.simulation import simulate
+from vesicle.solver import SolverTolerances
+from vesicle.stability import FullBasis, critical_lambda, stability
+from vesicle.steady import SymmetricBasis, _Problem, steady_tank_treading
+
+
+@pytest.fixture(scope="module")
+def steady():
+    # small and fast: N = 4 on 16 x 32 (the paper's Table 1 case is v=0.95, lam=8, chi=10)
+    return steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
+
+
+def test_newton_converges_quadratically(steady):
+    r = np.array(steady.residual_history)
+    assert steady.converged and r[-1] < 1e-8
+    assert r[-1] < 10 * r[-2] ** 1.6  # superlinear: the last steps square the residual
+    assert steady.shape.area == pytest.approx(4 * np.pi, rel=1e-9)
+    assert steady.shape.reduced_volume == pytest.approx(0.95, rel=1e-9)
+    assert abs(steady.multipliers[0]) < 1e-2 and abs(steady.multipliers[1]) < 1e-2
+
+
+def test_symmetric_stability_near_paper(steady):
+    """Paper, Table 1, N = 4 at 32 x 64: (3.226, -5.602e-2); this is 16 x 32."""
+    s = stability(steady)
+    w_r, w_i = s.most_unstable
+    assert w_r == pytest.approx(3.226, rel=0.01)
+    assert w_i < 0 and w_i == pytest.approx(-0.056, rel=0.25)
+    assert s.omega.shape[0] == steady.basis.size - 2  # the two trivial modes excluded
+
+
+def test_general_modes_confirm_symmetric_ones_are_most_unstable(steady):
+    sym = stability(steady).most_unstable
+    gen = stability(steady, modes="general")
+    assert gen.most_unstable == pytest.approx(sym, rel=1e-4)
+    assert gen.omega.shape[0] == FullBasis(4).size - 2 - 3  # constraints and translations
+
+
+def test_parallel_jacobian_is_identical_to_serial(steady):
+    P = _Problem(0.95, 8.0, 10.0, 4, 16, SolverTolerances(1e-8, 1e-9), None)
+    base, flow = P.adot(steady.a)
+    serial = P.jacobian(steady.a, base, flow.sigma)
+    with ProcessPoolExecutor(2) as pool:
+        P.executor = pool
+        parallel = P.jacobian(steady.a, base, flow.sigma)
+    np.testing.assert_array_equal(parallel, serial)
+
+
+def test_steady_shape_stays_steady_in_time(steady):
+    params = RunParameters(v=0.95, lam=8.0, chi=10.0, grid=16, degree=4, t_end=0.05,
+                           save_every=0.025, tolerances="steady", rtol=1e-5)
+    run = simulate(params, start=steady.shape)
+    psi = run.series["psi"]
+    assert np.abs(psi - steady.psi).max() < 1e-4
+    assert np.abs(run.series["D"] - steady.D).max() < 1e-4
+
+
+def test_symmetric_basis_round_trip():
+    b = SymmetricBasis(6)
+    a = np.random.default_rng(0).standard_normal(b.size)
+    np.testing.assert_allclose(b.from_coefficients(b.to_coefficients(a)), a)
+    f = FullBasis(6)
+    a = np.random.default_rng(1).standard_normal(f.size)
+    np.testing.assert_allclose(f.from_coefficients(f.to_coefficients(a)), a)
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="shear rate"):
+        steady_tank_treading(0.95, 1.0, 0.0, degree=4, grid=12)
+    with pytest.raises(ValueError, match="lam"):
+        steady_tank_treading(0.95, -1.0, 1.0, degree=4, grid=12)
+    with pytest.raises(ValueError, match="modes"):
+        stability(None, modes="odd")
+
+
+@pytest.mark.slow
+def test_critical_lambda_low_resolution():
+    """lambda_c(v = 0.95, chi = 1) is 8.46 in the paper (N = 8, 32 x 64); N = 4 on 16 x 32 here."""
+    c = critical_lambda(0.95, 1.0, degree=4, grid=16, lam0=8.0, xtol=1e-2)
+    assert 7.0 < c.lambda_c < 10.0
+    assert c.bifurcation in ("saddle-node", "hopf")
