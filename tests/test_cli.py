@@ -165,3 +165,21 @@ def test_run_bad_input(args, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     r = run(*args, "--no-progress") if args[0] == "run" else run(*args)
     assert r.exit_code != 0 and "Traceback" not in r.output
+
+
+def test_tt_json_with_stability():
+    r = run("tt", "--v", "0.95", "--lam", "8", "--chi", "10", "--degree", "2", "--grid", "12",
+            "--stability", "--json")
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output.strip().splitlines()[-1])
+    for key in ("psi", "D", "axes", "S_xz", "N1", "N2", "newton_iterations", "residual",
+                "omega_R", "omega_I", "eigenvalues"):
+        assert key in out
+    assert out["residual"] < 1e-8
+    # the paper: N = 2 wrongly predicts instability (omega_I = +7.3e-2 at 32 x 64)
+    assert out["omega_I"] > 0
+
+
+def test_critical_bad_input():
+    r = run("critical", "--v", "1.5", "--degree", "2", "--grid", "8")
+    assert r.exit_code != 0 and "Traceback" not in r.output
