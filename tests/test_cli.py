@@ -168,12 +168,36 @@ def test_run_bad_input(args, tmp_path, monkeypatch):
 
 
 def test_tt_json_with_stability():
-    r = run("tt", "--v", "0.95", "--lam", "8", "--chi", "10", "--degree", "2", "--grid", "12",
-            "--stability", "--json")
+    r = run(
+        "tt",
+        "--v",
+        "0.95",
+        "--lam",
+        "8",
+        "--chi",
+        "10",
+        "--degree",
+        "2",
+        "--grid",
+        "12",
+        "--stability",
+        "--json",
+    )
     assert r.exit_code == 0, r.output
     out = json.loads(r.output.strip().splitlines()[-1])
-    for key in ("psi", "D", "axes", "S_xz", "N1", "N2", "newton_iterations", "residual",
-                "omega_R", "omega_I", "eigenvalues"):
+    for key in (
+        "psi",
+        "D",
+        "axes",
+        "S_xz",
+        "N1",
+        "N2",
+        "newton_iterations",
+        "residual",
+        "omega_R",
+        "omega_I",
+        "eigenvalues",
+    ):
         assert key in out
     assert out["residual"] < 1e-8
     # the paper: N = 2 wrongly predicts instability (omega_I = +7.3e-2 at 32 x 64)

@@ -20,52 +20,13 @@ from scipy.optimize import brentq
 
 from .dynamics import rate_of_change
 from .solver import SolverTolerances, solve_flow
-from .sphere.transforms import transform
-from .steady import NewtonError, SteadyResult, _gradients, steady_tank_treading
+from .steady import FullBasis, NewtonError, SteadyResult, _gradients, steady_tank_treading
 from .surface import Shape
 from .theory import misbah_critical_lambda
 
 __all__ = ["CriticalResult", "FullBasis", "StabilityResult", "critical_lambda", "stability"]
 
 log = logging.getLogger(__name__)
-
-
-class FullBasis:
-    """Real coefficients of ``Pbar_lm cos(m phi)`` (all l, m) and ``Pbar_lm sin(m phi)`` (m > 0).
-
-    ``cos`` coefficients are ``w_m Re r_lm`` and ``sin`` ones ``-w_m Im r_lm``; the symmetric
-    basis is a coordinate subspace of this one.
-    """
-
-    def __init__(self, degree: int):
-        self.degree = degree
-        cos = [(l, m, 0) for l in range(degree + 1) for m in range(l + 1)]
-        sin = [(l, m, 1) for l in range(degree + 1) for m in range(1, l + 1)]
-        self.index = cos + sin
-        self.l = np.array([i[0] for i in self.index])
-        self.m = np.array([i[1] for i in self.index])
-        self.part = np.array([i[2] for i in self.index])
-        self.weight = np.where(self.m == 0, 1.0, 2.0)
-
-    @property
-    def size(self) -> int:
-        return len(self.index)
-
-    def to_coefficients(self, a: np.ndarray) -> np.ndarray:
-        c = np.zeros((self.degree + 1, self.degree + 1), dtype=complex)
-        a = np.asarray(a, float) / self.weight
-        re, im = self.part == 0, self.part == 1
-        c[self.l[re], self.m[re]] += a[re]
-        c[self.l[im], self.m[im]] -= 1j * a[im]
-        return c
-
-    def from_coefficients(self, c: np.ndarray) -> np.ndarray:
-        c = np.asarray(c)[self.l, self.m]
-        return self.weight * np.where(self.part == 0, c.real, -c.imag)
-
-    def functions(self, grid) -> np.ndarray:
-        T = transform(grid.n_theta, self.degree)
-        return T.synthesis(np.stack([self.to_coefficients(e) for e in np.eye(self.size)]))
 
 
 @dataclass(frozen=True, eq=False)

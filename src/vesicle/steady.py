@@ -30,7 +30,14 @@ from .sphere.transforms import transform
 from .surface import Shape, spheroid_axes
 from .theory import misbah_tt_inclination
 
-__all__ = ["NewtonError", "SteadyResult", "SymmetricBasis", "steady_tank_treading"]
+__all__ = [
+    "FullBasis",
+    "NewtonError",
+    "RealBasis",
+    "SteadyResult",
+    "SymmetricBasis",
+    "steady_tank_treading",
+]
 
 log = logging.getLogger(__name__)
 
@@ -43,20 +50,19 @@ class NewtonError(RuntimeError):
         self.result = result
 
 
-class SymmetricBasis:
-    """Coefficients ``a_lm`` (l even, 0 <= m <= l) of ``Pbar_lm cos(m phi)``, and conversions.
+class RealBasis:
+    """Real coefficients of ``Pbar_lm cos(m phi)`` (part 0) and ``Pbar_lm sin(m phi)`` (part 1).
 
-    In the complex convention of :mod:`vesicle.sphere` these are ``r_lm = a_lm / w_m`` with
-    ``w_0 = 1``, ``w_m = 2`` (real ``r_lm``); odd degrees and sine parts are zero.
+    In the complex convention of :mod:`vesicle.sphere`, a cosine coefficient is ``w_m Re r_lm``
+    and a sine coefficient ``-w_m Im r_lm`` (``w_0 = 1``, ``w_m = 2``).
     """
 
-    def __init__(self, degree: int):
-        if degree < 2:
-            raise ValueError(f"the symmetric basis needs degree >= 2, got {degree}")
+    def __init__(self, degree: int, index: list[tuple[int, int, int]]):
         self.degree = degree
-        self.index = [(l, m) for l in range(0, degree + 1, 2) for m in range(l + 1)]
-        self.l = np.array([i[0] for i in self.index])
-        self.m = np.array([i[1] for i in self.index])
+        self.index = index
+        self.l = np.array([i[0] for i in index])
+        self.m = np.array([i[1] for i in index])
+        self.part = np.array([i[2] for i in index])
         self.weight = np.where(self.m == 0, 1.0, 2.0)
 
     @property
@@ -65,17 +71,40 @@ class SymmetricBasis:
 
     def to_coefficients(self, a: np.ndarray) -> np.ndarray:
         c = np.zeros((self.degree + 1, self.degree + 1), dtype=complex)
-        c[self.l, self.m] = np.asarray(a, float) / self.weight
+        a = np.asarray(a, float) / self.weight
+        cos, sin = self.part == 0, self.part == 1
+        c[self.l[cos], self.m[cos]] += a[cos]
+        c[self.l[sin], self.m[sin]] -= 1j * a[sin]
         return c
 
     def from_coefficients(self, c: np.ndarray) -> np.ndarray:
-        """Project coefficients (any symmetry) onto the basis: ``a_lm = w_m Re r_lm``."""
-        return self.weight * np.real(np.asarray(c)[self.l, self.m])
+        """Project coefficients (any symmetry) onto the basis."""
+        c = np.asarray(c)[self.l, self.m]
+        return self.weight * np.where(self.part == 0, c.real, -c.imag)
 
     def functions(self, grid) -> np.ndarray:
         """The basis functions on a grid, (size, n_theta, n_phi)."""
         T = transform(grid.n_theta, self.degree)
         return T.synthesis(np.stack([self.to_coefficients(e) for e in np.eye(self.size)]))
+
+
+class SymmetricBasis(RealBasis):
+    """``a_lm`` (l even, 0 <= m <= l) of ``Pbar_lm cos(m phi)``: shapes symmetric under inversion
+    through the origin and ``y -> -y`` (SPEC §8)."""
+
+    def __init__(self, degree: int):
+        if degree < 2:
+            raise ValueError(f"the symmetric basis needs degree >= 2, got {degree}")
+        super().__init__(degree, [(l, m, 0) for l in range(0, degree + 1, 2) for m in range(l + 1)])
+
+
+class FullBasis(RealBasis):
+    """The full real basis (2.1): all degrees, cosine and sine parts."""
+
+    def __init__(self, degree: int):
+        cos = [(l, m, 0) for l in range(degree + 1) for m in range(l + 1)]
+        sin = [(l, m, 1) for l in range(degree + 1) for m in range(1, l + 1)]
+        super().__init__(degree, cos + sin)
 
 
 @dataclass(frozen=True, eq=False)
@@ -85,7 +114,7 @@ class SteadyResult:
     a: np.ndarray
     multipliers: tuple[float, float]
     shape: Shape
-    basis: SymmetricBasis
+    basis: RealBasis
     residual_history: tuple[float, ...]
     converged: bool
     jacobian: np.ndarray  # M = d adot / d a at the solution (basis coordinates)
@@ -111,7 +140,7 @@ class SteadyResult:
         return self.residual_history[-1]
 
 
-def _gradients(shape: Shape, basis: SymmetricBasis, phi: np.ndarray) -> np.ndarray:
+def _gradients(shape: Shape, basis: RealBasis, phi: np.ndarray) -> np.ndarray:
     """``dA/da`` and ``dV/da``: ``delta A = int -2H (n.e_r) delta r dA``, ``delta V = int (n.e_r)
     delta r dA``, integrated against each basis function."""
     ner = np.einsum("i...,i...->...", shape.normal, shape.grid.unit_vectors[0])

@@ -106,7 +106,7 @@ def _sigterm(*_) -> None:
 @click.option("--lam", type=float, default=1.0, show_default=True, help="Viscosity ratio.")
 @click.option("--chi", type=float, default=1.0, show_default=True, help="Shear rate.")
 @click.option("--flow", type=click.Choice(sorted(FLOWS)), default="shear", show_default=True)
-@click.option("--t-end", type=float, default=3.0, show_default=True, help="End time.")
+@click.option("--t-end", type=float, default=1.0, show_default=True, help="End time.")
 @click.option("--out", type=click.Path(dir_okay=False), default="run.h5", show_default=True)
 @click.option("--grid", type=int, default=24, show_default=True, help="n_theta of the grid.")
 @click.option("--degree", type=int, default=8, show_default=True, help="Shape degree N.")
