@@ -144,7 +144,7 @@ class Evaluation:
 def rate_of_change(shape: Shape, u: np.ndarray, degree: int) -> np.ndarray:
     """Coefficients of ``dr/dt`` (2.18)-(2.19) at fixed grid directions, filtered to ``degree``."""
     e_r, e_t, e_p = shape.grid.unit_vectors
-    d = shape._radius_derivatives  # r and its derivatives on the grid
+    d = shape.radius_derivatives
     st = np.sin(shape.grid.theta)[:, None]
     dot = lambda a, b: np.einsum("i...,i...->...", a, b)  # noqa: E731
     r = d.f

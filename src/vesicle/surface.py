@@ -226,15 +226,16 @@ class Shape:
     # ---------------------------------------------------------------- geometry
     @cached_property
     def radius(self) -> np.ndarray:
-        return self._radius_derivatives.f
+        return self.radius_derivatives.f
 
     @cached_property
-    def _radius_derivatives(self) -> Derivatives:
+    def radius_derivatives(self) -> Derivatives:
+        """``r`` and its first and second theta/phi derivatives on the grid (exact, degree N)."""
         return transform(self.grid.n_theta, self.degree).derivatives(self.coefficients)
 
     @cached_property
     def geometry(self) -> Geometry:
-        return compute_geometry(self.grid, self._radius_derivatives)
+        return compute_geometry(self.grid, self.radius_derivatives)
 
     @property
     def x(self) -> np.ndarray:
