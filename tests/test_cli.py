@@ -200,7 +200,7 @@ def test_tt_json_with_stability():
     ):
         assert key in out
     assert out["residual"] < 1e-8
-    # the paper: N = 2 wrongly predicts instability (omega_I = +7.3e-2 at 32 x 64)
+    # like the paper, N = 2 wrongly predicts instability (omega_I = +7.3e-2 at 32 x 64)
     assert out["omega_I"] > 0
 
 

@@ -50,14 +50,15 @@ def _full_jacobian(result: SteadyResult, basis: FullBasis, executor: Executor | 
     a0 = basis.from_coefficients(from_shape.coefficients)
     grid = result.shape.grid.n_theta
     spec = (result.lam, result.chi, basis.degree, grid, tuple(tol))
-    base = _full_adot(spec, a0)
     h = 1e-4 * max(1.0, abs(a0[0]))
-    columns = [a0 + h * e for e in np.eye(basis.size)]
+    steps = [h * e for e in np.eye(basis.size)]
+    points = [a0 + d for d in steps] + [a0 - d for d in steps]  # central differences
     if executor is None:
-        values = [_full_adot(spec, c) for c in columns]
+        values = [_full_adot(spec, c) for c in points]
     else:
-        values = list(executor.map(_full_adot, [spec] * basis.size, columns))
-    return (np.array(values).T - base[:, None]) / h
+        values = list(executor.map(_full_adot, [spec] * len(points), points))
+    values = np.array(values).T
+    return (values[:, : basis.size] - values[:, basis.size :]) / (2.0 * h)
 
 
 def _full_adot(spec: tuple, a: np.ndarray) -> np.ndarray:

@@ -172,17 +172,28 @@ class _Problem:
         rate = rate_of_change(shape, flow.u, self.basis.degree)
         return self.basis.from_coefficients(rate), flow
 
-    def jacobian(self, a: np.ndarray, base: np.ndarray, sigma0) -> np.ndarray:
+    def jacobian(
+        self, a: np.ndarray, base: np.ndarray, sigma0, central: bool = False
+    ) -> np.ndarray:
+        """``d adot / d a`` by differences of step ``1e-4``: forward (one solve per column) for
+        Newton, central (two) for the stability analysis, where the forward difference's O(h)
+        bias shifts the small growth rates (1.5 % of omega_I at N = 4, against 0.02 %)."""
         h = 1e-4 * max(1.0, abs(a[0]))
-        columns = [a + h * e for e in np.eye(a.size)]
+        steps = [h * e for e in np.eye(a.size)]
+        points = [a + d for d in steps] + ([a - d for d in steps] if central else [])
         if self.executor is None:
-            values = [_adot_column(self._spec(), c, sigma0) for c in columns]
+            values = [_adot_column(self._spec(), c, sigma0) for c in points]
         else:
             values = list(
-                self.executor.map(_adot_column, [self._spec()] * a.size, columns, [sigma0] * a.size)
+                self.executor.map(
+                    _adot_column, [self._spec()] * len(points), points, [sigma0] * len(points)
+                )
             )
-        self.solves += a.size
-        return (np.array(values).T - base[:, None]) / h
+        self.solves += len(points)
+        values = np.array(values).T
+        if central:
+            return (values[:, : a.size] - values[:, a.size :]) / (2.0 * h)
+        return (values - base[:, None]) / h
 
     def _spec(self) -> tuple:
         return (self.lam, self.chi, self.basis.degree, self.grid, self.tol)
@@ -283,9 +294,10 @@ def steady_tank_treading(
         step = _newton_step(M, g, G)
         a = a + step[: a.size]
         mult = mult + step[a.size :]
-    # the Jacobian at the solution (for the stability analysis); the Newton steps neglected the
-    # multipliers' curvature terms lambda_A d2A/da2 (the multipliers are at the drift level)
-    M = P.jacobian(a, rate, sigma) if converged else None
+    # The Jacobian at the solution, by central differences, for the stability analysis.  The
+    # Newton steps neglect the multipliers' curvature terms lambda_A d2A/da2: the multipliers
+    # are at the level of the discrete drift.
+    M = P.jacobian(a, rate, sigma, central=True) if converged else None
     result = _result(P, a, mult, history, converged, M, g, flow, t0)
     if not converged:
         raise NewtonError(
