@@ -123,6 +123,13 @@ class RunParameters:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
         if self.dt_min > self.dt_max:
             raise ValueError("dt_min must not exceed dt_max")
+        if self.grid < 2 * self.degree + 4:
+            log.warning(
+                "grid n_theta = %d is coarse for degree N = %d: the bending force (fourth "
+                "derivatives, nonlinear) aliases; SPEC uses N = 8 on 32 x 64",
+                self.grid,
+                self.degree,
+            )
         if self.integrator not in TABLEAUS:
             raise ValueError(f"integrator must be one of {sorted(TABLEAUS)}")
         if self.tolerances not in ("time-dependent", "steady"):
