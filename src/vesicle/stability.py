@@ -141,7 +141,7 @@ def critical_lambda(
             start = solutions[nearest].a
         try:
             steady = steady_tank_treading(
-                v, lam, chi, degree, grid, initial=start, executor=executor
+                v, lam, chi, degree, grid, initial=start, executor=executor, progress=progress
             )
         except NewtonError as err:
             raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err

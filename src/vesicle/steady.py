@@ -255,7 +255,9 @@ def steady_tank_treading(
     executor : concurrent.futures.Executor, optional
         Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
     progress : callable, optional
-        Called after every Newton iteration with ``{"iteration", "residual", "seconds"}``.
+        Called after every Newton iteration with ``{"iteration", "residual", "seconds"}``
+        (``critical_lambda`` passes its own callback through, which also gets ``{"lam",
+        "omega_R", "omega_I"}`` after each stability analysis).
     """
     if not (np.isfinite(v) and 0 < v <= 1) or not (np.isfinite(lam) and lam > 0):
         raise ValueError(f"need 0 < v <= 1 and lam > 0, got v={v}, lam={lam}")
