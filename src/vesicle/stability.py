@@ -135,6 +135,9 @@ def critical_lambda(
     solutions: dict[float, SteadyResult] = {}
 
     def growth(lam: float) -> float:
+        for done, _, w_i in history:  # Brent re-evaluates the bracket's ends: reuse them
+            if done == lam:
+                return w_i
         start = None
         if solutions:
             nearest = min(solutions, key=lambda x: abs(np.log(x / lam)))
