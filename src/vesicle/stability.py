@@ -18,10 +18,15 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from .dynamics import rate_of_change
-from .solver import SolverTolerances, solve_flow
-from .steady import FullBasis, NewtonError, SteadyResult, _gradients, steady_tank_treading
-from .surface import Shape
+from .solver import SolverTolerances
+from .steady import (
+    FullBasis,
+    NewtonError,
+    SteadyResult,
+    _adot_column,
+    _gradients,
+    steady_tank_treading,
+)
 from .theory import misbah_critical_lambda
 
 __all__ = ["CriticalResult", "FullBasis", "StabilityResult", "critical_lambda", "stability"]
@@ -49,24 +54,16 @@ def _full_jacobian(result: SteadyResult, basis: FullBasis, executor: Executor | 
     from_shape = result.shape.with_degree(basis.degree)
     a0 = basis.from_coefficients(from_shape.coefficients)
     grid = result.shape.grid.n_theta
-    spec = (result.lam, result.chi, basis.degree, grid, tuple(tol))
+    spec = (result.lam, result.chi, FullBasis, basis.degree, grid, SolverTolerances(*tol))
     h = 1e-4 * max(1.0, abs(a0[0]))
     steps = [h * e for e in np.eye(basis.size)]
     points = [a0 + d for d in steps] + [a0 - d for d in steps]  # central differences
     if executor is None:
-        values = [_full_adot(spec, c) for c in points]
+        values = [_adot_column(spec, c) for c in points]
     else:
-        values = list(executor.map(_full_adot, [spec] * len(points), points))
+        values = list(executor.map(_adot_column, [spec] * len(points), points))
     values = np.array(values).T
     return (values[:, : basis.size] - values[:, basis.size :]) / (2.0 * h)
-
-
-def _full_adot(spec: tuple, a: np.ndarray) -> np.ndarray:
-    lam, chi, degree, grid, tol = spec
-    basis = FullBasis(degree)
-    shape = Shape(basis.to_coefficients(a), grid)
-    flow = solve_flow(shape, lam=lam, chi=chi, tolerances=SolverTolerances(*tol))
-    return basis.from_coefficients(rate_of_change(shape, flow.u, degree))
 
 
 def stability(

@@ -196,13 +196,14 @@ class _Problem:
         return (values - base[:, None]) / h
 
     def _spec(self) -> tuple:
-        return (self.lam, self.chi, self.basis.degree, self.grid, self.tol)
+        return (self.lam, self.chi, type(self.basis), self.basis.degree, self.grid, self.tol)
 
 
-def _adot_column(spec: tuple, a: np.ndarray, sigma0) -> np.ndarray:
-    """One Jacobian column's ``adot`` (module level so process pools can pickle it)."""
-    lam, chi, degree, grid, tol = spec
-    basis = SymmetricBasis(degree)
+def _adot_column(spec: tuple, a: np.ndarray, sigma0=None) -> np.ndarray:
+    """``adot`` at coefficients ``a`` of a basis, one Jacobian column (module level so process
+    pools can pickle it); ``spec = (lam, chi, basis class, degree, grid, tolerances)``."""
+    lam, chi, basis_cls, degree, grid, tol = spec
+    basis = basis_cls(degree)
     shape = Shape(basis.to_coefficients(a), grid)
     flow = solve_flow(shape, lam=lam, chi=chi, tolerances=tol, sigma0=sigma0)
     return basis.from_coefficients(rate_of_change(shape, flow.u, degree))
