@@ -1,5 +1,7 @@
 """Time-dependent runs: restart, interruption, relaxation, drift control, diagnostics."""
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -7,7 +9,7 @@ from hypothesis import strategies as st
 
 import vesicle as vs
 from vesicle.analysis import classify_regime, diagnose, recentered
-from vesicle.dynamics import RunParameters, rate_of_change, restore_area_volume
+from vesicle.dynamics import Integrator, RunParameters, rate_of_change, restore_area_volume
 from vesicle.io import read_run, write_run
 from vesicle.simulation import load_parameters, simulate, summarize
 from vesicle.sphere.rotation import rotation_matrix
@@ -83,12 +85,13 @@ def test_relaxation_at_rest_lowers_bending_energy():
 
 
 def test_drift_control_holds_area_and_volume():
-    run = simulate(params(t_end=0.06))
+    p = params(t_end=0.06, drift_tol=1e-6)
+    run = simulate(p)
     area, volume = run.series["area"], run.series["volume"]
-    assert np.abs(area / area[0] - 1).max() < 1e-6
-    assert np.abs(volume / volume[0] - 1).max() < 1e-6
+    assert np.abs(area / area[0] - 1).max() <= p.drift_tol
+    assert np.abs(volume / volume[0] - 1).max() <= p.drift_tol
     summary = summarize(run)
-    assert summary["corrections"]["area"] >= 0 and summary["drift"]["area"] < 1e-6
+    assert summary["corrections"]["area"] > 0 and summary["drift"]["area"] <= p.drift_tol
 
 
 def test_rate_of_change_of_a_rigid_rotation_matches_rotated_shape():
@@ -151,3 +154,37 @@ def test_bad_run_parameters_are_refused(name, value):
 def test_too_coarse_grid_is_refused():
     with pytest.raises(ValueError, match="n_theta > N"):
         RunParameters(grid=8, degree=8)
+
+
+class _ModelIntegrator(Integrator):
+    """The integrator on a model stiff ODE, ``y' = -G_l y + cos(y) / 2`` per coefficient, with a
+    deliberately wrong approximate Jacobian (half the true stiffness)."""
+
+    G = np.array([0.0, 0.0, 3.0, 40.0, 400.0])
+
+    def evaluate(self, y, sigma0):
+        rate = -self.G[:, None] * y + 0.5 * np.cos(y.real)
+        return SimpleNamespace(rate=rate, flow=SimpleNamespace(sigma=None), shape=None)
+
+    def stiffness(self, first):
+        return 0.5 * self.G
+
+
+@pytest.mark.parametrize("integrator", ["ros2", "bs3", "heun"])
+def test_integrators_converge_at_their_order_with_an_approximate_jacobian(integrator):
+    """ROS2 is a W-method: order 2 for any approximate Jacobian (here half the true one)."""
+    integ = _ModelIntegrator(RunParameters(grid=12, degree=4, integrator=integrator))
+    if integrator != "ros2":  # explicit pairs: stable only for dt < ~2.5/400; drop that mode
+        integ.G = np.array([0.0, 0.0, 3.0, 40.0, 0.0])
+    y0 = np.full((5, 5), 0.3 + 0.0j)
+
+    def solve(n):
+        y = y0.copy()
+        for _ in range(n):
+            y = integ.step(y, 1.0 / n, integ.evaluate(y, None)).y_new
+        return y
+
+    reference = solve(4096)
+    errors = [np.abs(solve(n) - reference).max() for n in (64, 128, 256)]
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(orders > integ.order - 0.3), (errors, orders)

@@ -14,6 +14,7 @@ from vesicle.solver import (
     VelocityTensionSolver,
     schur_symbol,
     solve_flow,
+    sphere_relaxation_rates,
 )
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.sphere.transforms import transform
@@ -181,3 +182,40 @@ def test_bad_inputs():
         FlowParameters(1.0, 1.0, "vortex")
     with pytest.raises(ValueError, match="tolerance"):
         SolverTolerances(schur=0.0)
+
+
+@pytest.mark.parametrize("lam", [0.5, 1.0, 8.0])
+@pytest.mark.parametrize("sigma", [0.0, -6.0, 12.5])
+def test_sphere_relaxation_rates_match_classical_results(lam, sigma):
+    """l = 2: the (23 lam + 32) of small-deformation theory (Misbah 2006); lam = 1, every l:
+    Milner & Safran (1987), Gamma_l = E_l l(l+1) / ((2l+1)(2l^2+2l-1))."""
+    rates = sphere_relaxation_rates(10, lam, sigma)
+    l = np.arange(11.0)
+    E = (l - 1) * (l + 2) * (l * (l + 1) + sigma)
+    assert rates[0] == 0.0 and rates[1] == 0.0
+    assert rates[2] == pytest.approx(E[2] * 6.0 / (23.0 * lam + 32.0), rel=1e-13)
+    if lam == 1.0:
+        expected = E * l * (l + 1) / ((2 * l + 1) * (2 * l * l + 2 * l - 1))
+        np.testing.assert_allclose(rates[2:], expected[2:], rtol=1e-13)
+    assert np.all(np.diff(rates[2:]) > 0)
+
+
+@pytest.mark.parametrize("lam", [1.0, 8.0])
+def test_sphere_relaxation_rates_match_the_solver_on_a_quasi_sphere(lam):
+    """A quasi-sphere r = 1 + eps Y_20 at rest is held by the tension sigma ~ -6 (E_2 = 0); a
+    small Y_40 added to it decays at Gamma_4(sigma), to O(eps).  This also fixes the sign of the
+    tension in the symbol."""
+    from vesicle.dynamics import rate_of_change
+
+    N, eps, delta = 6, 0.01, 1e-3
+    rates = []
+    for d in (0.0, delta):
+        c = np.zeros((N + 1, N + 1), complex)
+        c[0, 0], c[2, 0], c[4, 0] = np.sqrt(2.0), eps, d
+        shape = vs.Shape(c, 16)
+        r = solve_flow(shape, lam=lam, chi=0.0, tolerances="steady")
+        rates.append(rate_of_change(shape, r.u, N))
+        sigma = shape.integrate(r.sigma) / shape.area
+    gamma = -(rates[1][4, 0] - rates[0][4, 0]).real / delta
+    assert -8.0 < sigma < -5.0
+    assert gamma == pytest.approx(sphere_relaxation_rates(N, lam, sigma)[4], rel=0.03)

@@ -121,6 +121,7 @@ def simulate(
             raise ValueError("the run file has no checkpoint to resume from")
         run, state = resume, StepState.from_checkpoint(resume.checkpoint)
         integ.previous_error = state.previous_error
+        integ.solves = state.solves
         run.parameters["t_end"] = params.t_end
         current = integ.evaluate(state.coefficients, state.sigma_in)
         log.info("resuming at t=%.6f (step %d)", state.t, state.steps)
@@ -135,6 +136,7 @@ def simulate(
             volume0=shape.volume,
         )
         current = integ.evaluate(state.coefficients, None)
+        state.solves = integ.solves
     checkpoint = _Checkpointer(Path(out) if out is not None else None, params.checkpoint_every)
     try:
         _loop(params, integ, run, state, current, checkpoint, progress)
@@ -162,6 +164,7 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
             break
         dt = min(state.dt, state.next_save - state.t, params.t_end - state.t)
         result = integ.step(state.coefficients, dt, current)
+        state.solves = integ.solves
         if not result.accepted:
             state.rejected += 1
             state.dt = result.dt_next
@@ -183,6 +186,7 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
         else:
             state.sigma_in = result.sigma if result.final is None else result.final.flow.sigma
             current = integ.evaluate(state.coefficients, state.sigma_in)
+            state.solves = integ.solves
             state.corrections["evaluations"] += 1
         if progress is not None:
             progress(
@@ -243,6 +247,7 @@ def summarize(run: RunData) -> dict:
         "saved_steps": run.n_saved,
         "steps": ck.get("steps"),
         "rejected_steps": ck.get("rejected"),
+        "solves": ck.get("solves"),
         "final": {
             "psi": float(s["psi"][-1]),
             "D": float(s["D"][-1]),

@@ -12,7 +12,7 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
-from ..dynamics import TABLEAUS, RunParameters
+from ..dynamics import INTEGRATORS, RunParameters
 from ..flows import FLOWS
 from ..io import RunData, read_run
 from ..plots import plot_run
@@ -134,8 +134,15 @@ def _sigterm(*_) -> None:
     show_default=True,
     help="Local error per step, relative to the mean radius.",
 )
-@click.option("--dt-max", type=float, default=0.05, show_default=True)
-@click.option("--integrator", type=click.Choice(sorted(TABLEAUS)), default="bs3", show_default=True)
+@click.option("--dt-max", type=float, default=0.05, show_default=True, help="Largest time step.")
+@click.option(
+    "--integrator",
+    type=click.Choice(INTEGRATORS),
+    default="ros2",
+    show_default=True,
+    help="ros2: linearly implicit in the bending stiffness (2 solves per step); "
+    "bs3, heun: explicit (3 and 2 solves per step, step limited by bending stiffness).",
+)
 @click.option(
     "--steady-tol",
     type=float,
@@ -151,6 +158,13 @@ def _sigterm(*_) -> None:
     help="Wall seconds between checkpoints.",
 )
 @click.option("--no-drift-control", is_flag=True, help="Do not restore area and volume.")
+@click.option(
+    "--drift-tol",
+    type=float,
+    default=1e-5,
+    show_default=True,
+    help="Relative area/volume drift at which both are restored.",
+)
 @click.option(
     "--resume",
     type=click.Path(exists=True, dir_okay=False),
