@@ -155,6 +155,19 @@ def test_linear_operators_and_bad_input():
         lp.double_layer(np.zeros((3, 8, 8)))
     with pytest.raises(ValueError, match="method"):
         LayerPotentials(vs.Shape.sphere(grid=8), method="fmm")
+    with pytest.raises(ValueError, match="kernels"):
+        LayerPotentials(vs.Shape.sphere(grid=8), kernels=("triple",))
+
+
+def test_assembling_one_kernel_at_a_time_gives_the_same_operators():
+    """lam = 1 needs only the single layer; the double layer, if asked for later, is built alone."""
+    shape = vs.Shape.ellipsoid(1.2, 0.9, 0.8, grid=10)
+    both = LayerPotentials(shape)
+    one = LayerPotentials(shape, kernels=("single",))
+    f = np.random.default_rng(2).standard_normal((3, 10, 20))
+    np.testing.assert_array_equal(one.single_layer(f), both.single_layer(f))
+    assert "double" not in one._assembled and "double" in both._assembled
+    np.testing.assert_array_equal(one.double_layer(f), both.double_layer(f))
 
 
 def test_public_functions():

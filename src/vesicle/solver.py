@@ -260,7 +260,8 @@ class VelocityTensionSolver:
         self.shape = shape
         self.params = params
         self.tol = tolerances or SolverTolerances.time_dependent()
-        self.lp = operators if operators is not None else LayerPotentials(shape)
+        kernels = ("single",) if params.lam == 1.0 else ("single", "double")
+        self.lp = operators if operators is not None else LayerPotentials(shape, kernels=kernels)
         self.scale = np.sqrt(shape.grid.weights * shape.area_element)
         self.is_sphere = abs(shape.reduced_volume - 1.0) < SPHERE_TOLERANCE
         self._bending = None

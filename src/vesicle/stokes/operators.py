@@ -39,6 +39,9 @@ log = logging.getLogger(__name__)
 
 METHODS = ("assembled", "matrix-free")
 
+#: The two layer potentials, in assembly order.
+KERNELS = ("single", "double")
+
 #: Symmetric 3x3 kernel components stored once: (i, j) pairs with i <= j.
 _PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
@@ -60,6 +63,10 @@ class LayerPotentials:
         See the module docstring; "assembled" is faster beyond a few applies per shape.
     workers : int, optional
         Threads over latitude rings (BLAS is held to one thread inside); default ``min(2, cpus)``.
+    kernels : tuple of {"single", "double"}
+        The operators the caller will apply: "assembled" builds them together, in one pass over
+        the rings, on first need (an operator not listed is still available; it is then built
+        on its own).  The velocity solve at ``lam = 1`` needs only the single layer.
     """
 
     def __init__(
@@ -68,9 +75,14 @@ class LayerPotentials:
         n_rot: int | None = None,
         method: str = "assembled",
         workers: int | None = None,
+        kernels: tuple[str, ...] = KERNELS,
     ):
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
+        if not kernels or any(k not in KERNELS for k in kernels):
+            raise ValueError(f"kernels must be a non-empty subset of {KERNELS}, got {kernels!r}")
+        self.kernels = tuple(kernels)
+        self._assembled: dict[str, np.ndarray] = {}
         self.shape = shape
         self.method = method
         self.quad: SingularQuadrature = singular_quadrature(shape.grid.n_theta, n_rot)
@@ -136,61 +148,77 @@ class LayerPotentials:
         return np.einsum("qk,iqk->ik", coef, g.xh) - 4.0 * np.pi * u0
 
     # ----------------------------------------------------------- assembly
-    def _assemble_ring(self, i: int, out: dict[str, np.ndarray]) -> None:
-        """Rows of ring ``i`` of both operators, written into the preallocated ``out``."""
+    def _assemble_ring(self, i: int, kinds: tuple[str, ...], out: dict[str, np.ndarray]) -> None:
+        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``."""
         g = self.ring_geometry(i)
         inv_r = g.inv_r
-        scal = {"single": g.weight * inv_r**3, "double": _stresslet_scalar(g)}
+        scal = {}
+        if "single" in kinds:
+            scal["single"] = g.weight * inv_r**3
+        if "double" in kinds:
+            scal["double"] = _stresslet_scalar(g)
         diag = g.weight * inv_r
-        comps = np.empty((g.xh.shape[1], 2 * len(_PAIRS), g.xh.shape[2]))  # (Q, 12, K)
+        n = len(_PAIRS)
+        comps = np.empty((g.xh.shape[1], n * len(kinds), g.xh.shape[2]))  # (Q, 6 per kind, K)
         for p, (a, b) in enumerate(_PAIRS):
             xx = g.xh[a] * g.xh[b]
-            comps[:, p] = scal["single"] * xx
-            comps[:, p + len(_PAIRS)] = scal["double"] * xx
-            if a == b:
-                comps[:, p] += diag
-        rows = self.quad.pull_back(i, comps)  # (2, ntri, 12, K)
-        for offset, kind in ((0, "single"), (len(_PAIRS), "double")):
+            for k, kind in enumerate(kinds):
+                comps[:, p + k * n] = scal[kind] * xx
+                if kind == "single" and a == b:
+                    comps[:, p + k * n] += diag
+        rows = self.quad.pull_back(i, comps)  # (2, ntri, 6 per kind, K)
+        for k, kind in enumerate(kinds):
             block = out[kind][:, :, :, :, i]  # transposed: (3 [density], 2, ntri, 3 [out], K)
             for p, (a, b) in enumerate(_PAIRS):
-                block[b, :, :, a] = rows[:, :, p + offset]
-                block[a, :, :, b] = rows[:, :, p + offset]
-        # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
-        out["double_diagonal"][i] = -np.einsum(
-            "qk,iqk,jqk->kij", scal["double"], g.xh, g.xh
-        ) - 4.0 * np.pi * np.eye(3)
+                block[b, :, :, a] = rows[:, :, p + k * n]
+                block[a, :, :, b] = rows[:, :, p + k * n]
+        if "double" in kinds:
+            # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
+            out["double_diagonal"][i] = -np.einsum(
+                "qk,iqk,jqk->kij", scal["double"], g.xh, g.xh
+            ) - 4.0 * np.pi * np.eye(3)
 
-    @cached_property
-    def _matrices(self) -> dict[str, np.ndarray]:
+    def _matrix(self, kind: str) -> np.ndarray:
+        """The assembled ``kind`` operator; on first need, every kernel of ``self.kernels`` not
+        yet assembled is built in the same pass over the rings (their geometry is shared)."""
+        if kind not in self._assembled:
+            kinds = tuple(k for k in KERNELS if k == kind or k in self.kernels)
+            kinds = tuple(k for k in kinds if k not in self._assembled)
+            self._assemble(kinds)
+        return self._assembled[kind]
+
+    def _assemble(self, kinds: tuple[str, ...]) -> None:
         nt, nphi = self.shape.grid.shape
         ntri = self._tri[0].size
         # Stored transposed, (columns, rows), so that each ring writes contiguous target runs;
         # the apply multiplies by the transpose (BLAS reads it as a row-major matrix).
-        out = {
-            "single": np.empty((3, 2, ntri, 3, nt, nphi)),
-            "double": np.empty((3, 2, ntri, 3, nt, nphi)),
-            "double_diagonal": np.empty((nt, nphi, 3, 3)),
-        }
-        self._timed("assembly", lambda: self._map_rings(lambda i: self._assemble_ring(i, out)))
+        out = {kind: np.empty((3, 2, ntri, 3, nt, nphi)) for kind in kinds}
+        if "double" in kinds:
+            out["double_diagonal"] = np.empty((nt, nphi, 3, 3))
+        t = time.perf_counter()
+        self._timed(
+            "assembly", lambda: self._map_rings(lambda i: self._assemble_ring(i, kinds, out))
+        )
         log.debug(
-            "assembled single and double layers (%d x %d each) in %.3f s",
+            "assembled %s layer (%d x %d each) in %.3f s",
+            " and ".join(kinds),
             3 * nt * nphi,
             6 * ntri,
-            self.timings["assembly"],
+            time.perf_counter() - t,
         )
-        for kind in ("single", "double"):
+        for kind in kinds:
             out[kind] = out[kind].reshape(6 * ntri, 3 * nt * nphi).T
-        return out
+        self._assembled.update(out)
 
     @property
     def single_matrix(self) -> np.ndarray:
         """Dense single layer: real coefficient vector (see :meth:`coefficient_vector`) -> grid."""
-        return self._matrices["single"]
+        return self._matrix("single")
 
     @property
     def double_matrix(self) -> tuple[np.ndarray, np.ndarray]:
         """Dense double layer: the coefficient-space matrix and the (nt, np, 3, 3) diagonal."""
-        return self._matrices["double"], self._matrices["double_diagonal"]
+        return self._matrix("double"), self._assembled["double_diagonal"]
 
     def coefficient_vector(self, density: np.ndarray) -> np.ndarray:
         """``[Re c_j, Im c_j]`` of the lower-triangular coefficients of each component ``j``."""
