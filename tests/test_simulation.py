@@ -133,6 +133,8 @@ def test_regime_classification_on_synthetic_series():
     t = np.linspace(0, 20, 2001)
     tt = classify_regime(t, 0.3 + 0.1 * np.exp(-2 * t) * np.cos(3 * t))
     assert tt.name == "TT"
+    slow = classify_regime(t, 0.03 * np.exp(-0.08 * t) * np.cos(2.94 * t))  # SPEC §14's case
+    assert slow.name == "TT" and "damped" in slow.detail
     tr = classify_regime(t, 0.4 * np.cos(2 * np.pi * t / 2.5))
     assert tr.name == "TR" and tr.period == pytest.approx(2.5, rel=1e-2)
     angle = np.pi / 2 - (np.pi * t / 3.0) % np.pi  # half a turn every 3 time units
@@ -188,3 +190,19 @@ def test_integrators_converge_at_their_order_with_an_approximate_jacobian(integr
     errors = [np.abs(solve(n) - reference).max() for n in (64, 128, 256)]
     orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
     assert np.all(orders > integ.order - 0.3), (errors, orders)
+
+
+@pytest.mark.parametrize("omega", [(2.94, -0.083), (1.2, 0.02), (5.0, -0.4)])
+def test_damped_oscillation_fit_recovers_its_parameters(omega):
+    from vesicle.analysis import fit_damped_oscillation
+
+    t = np.arange(0.0, 15.0, 0.02)
+    psi = 0.3 + 0.05 * np.exp(omega[1] * t) * np.cos(omega[0] * t + 1.0)
+    psi += 1e-6 * np.random.default_rng(0).standard_normal(t.size)
+    fit = fit_damped_oscillation(t, psi, t_min=1.0)
+    assert fit.omega == pytest.approx(omega, rel=1e-3, abs=1e-4)
+    assert fit.psi_inf == pytest.approx(0.3, abs=1e-5)
+    assert fit.amplitude == pytest.approx(0.05, rel=1e-3)
+    assert fit.rms_residual < 2e-6
+    with pytest.raises(ValueError, match="periods"):
+        fit_damped_oscillation(t[:100], psi[:100], t_min=0.0)

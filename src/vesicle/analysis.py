@@ -8,6 +8,7 @@ two principal axes that lie closest to the x-z plane, in (-pi/2, pi/2]; ``D = (L
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from itertools import pairwise
 
@@ -17,10 +18,12 @@ from .sphere.transforms import evaluate, mode_energy, transform
 from .surface import Shape
 
 __all__ = [
+    "DampedOscillation",
     "Regime",
     "ShapeDiagnostics",
     "classify_regime",
     "diagnose",
+    "fit_damped_oscillation",
     "ray_radius",
     "recentered",
 ]
@@ -144,8 +147,9 @@ def classify_regime(
     TU when psi jumps by about pi (it runs through +-pi/2); out-of-plane when the longest axis
     leaves the x-z plane (|y component| > 0.1 over the last part); TT when psi varies by less
     than ``steady_tol`` over the last ``tail`` fraction of the run; TR when psi oscillates there
-    with at least two minima.  The period is the mean time between consecutive minima of psi (TR)
-    or between half-turn jumps (TU, so a half turn).
+    with at least two minima and does not decay (a fitted amplitude falling by less than 20 % over
+    the tail; a damped oscillation is a TT approach).  The period is the mean time between
+    consecutive minima of psi (TR) or between half-turn jumps (TU, so a half turn).
     """
     t, psi = np.asarray(t, float), np.asarray(psi, float)
     if t.size < 5:
@@ -164,11 +168,103 @@ def classify_regime(
     if spread < steady_tol:
         return Regime("TT", None, np.array([]), f"psi steady to {spread:.1e} over the tail")
     if minima.size >= 2:
-        # a decaying oscillation that settles is TT; a sustained one is TR
+        # a decaying oscillation that settles is TT; a sustained one is TR.  Decided by the
+        # fitted growth rate: damped when the amplitude falls by 20 % or more over the tail
         tm = t[last][minima]
         tl = t[last]
-        amp = [np.ptp(p[(tl >= a) & (tl <= b)]) for a, b in pairwise(tm)]
-        if len(amp) >= 2 and amp[-1] < 0.5 * amp[0]:
-            return Regime("TT", float(np.mean(np.diff(tm))), tm, "damped oscillation of psi")
-        return Regime("TR", float(np.mean(np.diff(tm))), tm, "sustained oscillation of psi")
+        period = float(np.mean(np.diff(tm)))
+        try:
+            fit = fit_damped_oscillation(tl, p, t_min=tl[0])
+            decay = float(np.exp(fit.omega_I * (tl[-1] - tl[0])))
+        except ValueError:  # too few periods to fit: compare the first and last swings
+            amp = [np.ptp(p[(tl >= a) & (tl <= b)]) for a, b in pairwise(tm)]
+            decay = amp[-1] / amp[0] if len(amp) >= 2 and amp[0] > 0 else 1.0
+        if decay < 0.8:
+            return Regime(
+                "TT", period, tm, f"damped oscillation of psi (x{decay:.2f} over the tail)"
+            )
+        detail = f"sustained oscillation of psi (x{decay:.2f} over the tail)"
+        return Regime("TR", period, tm, detail)
     return Regime("undetermined", None, np.array([]), "psi still drifting; run longer")
+
+
+@dataclass(frozen=True)
+class DampedOscillation:
+    """``psi(t) = psi_inf + amplitude exp(omega_I t) cos(omega_R t + phase)``, fitted."""
+
+    psi_inf: float
+    amplitude: float
+    omega_R: float
+    omega_I: float
+    phase: float
+    rms_residual: float  # of the fit over the fitted window
+    t_min: float
+
+    @property
+    def omega(self) -> tuple[float, float]:
+        return self.omega_R, self.omega_I
+
+
+def fit_damped_oscillation(
+    t: np.ndarray, psi: np.ndarray, t_min: float | None = None
+) -> DampedOscillation:
+    """Least-squares fit of a damped (or growing) oscillation to ``psi(t)`` for ``t >= t_min``.
+
+    How a time-dependent run is compared with the linear stability of its steady state (SPEC
+    §14): ``(omega_R, omega_I)`` of the fit against the most unstable eigenvalue.  The start
+    values come from the series itself (the mean of its last part, the dominant frequency of its
+    periodogram, the decay of its envelope); ``t_min`` (default: a fifth into the series) skips
+    the start-up transient.  Raises ``ValueError`` when the window holds fewer than two periods
+    or the fit does not converge.
+    """
+    from scipy.optimize import OptimizeWarning, curve_fit
+
+    t, psi = np.asarray(t, float), np.asarray(psi, float)
+    if t_min is None:
+        t_min = t[0] + 0.2 * (t[-1] - t[0])
+    keep = (t >= t_min) & np.isfinite(psi)
+    tw, pw = t[keep], psi[keep]
+    if tw.size < 16:
+        raise ValueError(f"only {tw.size} saved steps after t = {t_min:g}; need at least 16")
+    # start values: uniform resampling, periodogram peak, envelope decay
+    tu = np.linspace(tw[0], tw[-1], tw.size)
+    pu = np.interp(tu, tw, pw)
+    mean = float(np.mean(pu[pu.size // 2 :]))
+    spectrum = np.abs(np.fft.rfft((pu - mean) * np.hanning(pu.size)))
+    freqs = np.fft.rfftfreq(pu.size, tu[1] - tu[0]) * 2.0 * np.pi
+    k = int(np.argmax(spectrum[1:])) + 1
+    omega_r = float(freqs[k])
+    if omega_r * (tw[-1] - tw[0]) < 4.0 * np.pi:
+        raise ValueError("the fitted window holds fewer than two periods; run longer")
+    half = tw < tw[0] + 0.5 * (tw[-1] - tw[0])
+    a0, a1 = np.ptp(pw[half]), np.ptp(pw[~half])
+    span = 0.5 * (tw[-1] - tw[0])
+    omega_i = float(np.log(max(a1, 1e-300) / max(a0, 1e-300)) / span) if a0 > 0 else 0.0
+
+    def model(x, c, a, wi, wr, ph):
+        return c + a * np.exp(wi * (x - tw[0])) * np.cos(wr * x + ph)
+
+    best = None
+    for phase in np.linspace(0.0, 2.0 * np.pi, 8, endpoint=False):
+        try:
+            with warnings.catch_warnings():  # a singular covariance is no concern here
+                warnings.simplefilter("ignore", OptimizeWarning)
+                p, _ = curve_fit(
+                    model, tw, pw, p0=[mean, 0.5 * a0, omega_i, omega_r, phase], maxfev=20000
+                )
+        except RuntimeError:
+            continue
+        rms = float(np.sqrt(np.mean((model(tw, *p) - pw) ** 2)))
+        if best is None or rms < best[1]:
+            best = (p, rms)
+    if best is None:
+        raise ValueError("the damped-oscillation fit did not converge")
+    (c, a, wi, wr, ph), rms = best
+    if wr < 0:  # cos is even: report omega_R > 0
+        wr, ph = -wr, -ph
+    if a < 0:
+        a, ph = -a, ph + np.pi
+    amplitude = float(a * np.exp(-wi * tw[0]))  # referred to t = 0
+    return DampedOscillation(
+        float(c), amplitude, float(wr), float(wi), float(np.mod(ph, 2 * np.pi)), rms, float(t_min)
+    )

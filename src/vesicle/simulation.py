@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import classify_regime, diagnose
+from .analysis import classify_regime, diagnose, fit_damped_oscillation
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
 from .flows import FLOWS
 from .io import SERIES, RunData, write_run
@@ -221,7 +221,10 @@ def summarize(run: RunData) -> dict:
     ``mean`` averages ``S_xz, N1, N2`` over whole periods (between the first and last psi
     minimum) when the run is periodic, else over the last quarter of the saved steps.
     ``drift`` is the relative change of area and volume from the first to the last saved step;
-    ``corrections`` the total relative amounts the drift control removed.
+    ``corrections`` the total relative amounts the drift control removed.  ``oscillation``: when
+    psi oscillates (a damped TT approach or TR), the fit of
+    ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the first psi minimum on
+    (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.
     """
     s = run.series
     t = s["t"]
@@ -239,6 +242,22 @@ def summarize(run: RunData) -> dict:
 
     ck = run.checkpoint or {}
     corrections = ck.get("corrections", {})
+    oscillation = None
+    if regime.name in ("TT", "TR") and regime.minima.size >= 2:
+        psi = s["psi"]
+        first = np.nonzero((psi[1:-1] < psi[:-2]) & (psi[1:-1] <= psi[2:]))[0]
+        try:  # from the second minimum of the whole series: past the start-up transient
+            fit = fit_damped_oscillation(t, psi, t_min=float(t[first[min(1, first.size - 1)] + 1]))
+            oscillation = {
+                "omega_R": fit.omega_R,
+                "omega_I": fit.omega_I,
+                "psi_inf": fit.psi_inf,
+                "amplitude": fit.amplitude,
+                "rms_residual": fit.rms_residual,
+                "t_min": fit.t_min,
+            }
+        except ValueError as err:
+            log.info("no damped-oscillation fit: %s", err)
     return {
         "regime": regime.name,
         "regime_detail": regime.detail,
@@ -256,6 +275,7 @@ def summarize(run: RunData) -> dict:
             "reduced_volume": float(s["reduced_volume"][-1]),
         },
         "mean": {k: mean(k) for k in ("S_xz", "N1", "N2")},
+        "oscillation": oscillation,
         "drift": {
             "area": float(s["area"][-1] / s["area"][0] - 1.0),
             "volume": float(s["volume"][-1] / s["volume"][0] - 1.0),
