@@ -136,9 +136,15 @@ def _plot_psi(run: RunData, path: Path, dpi: int) -> Path:
     fig = _figure()
     ax = fig.add_subplot()
     ax.plot(t, psi, color="C0", lw=1.5)
-    for level in (-0.5 * np.pi, 0.0, 0.5 * np.pi):
-        ax.axhline(level, color="0.6", lw=0.8, ls="--" if level else ":")
-    ax.set_ylim(-0.55 * np.pi, 0.55 * np.pi)
+    finite = psi[np.isfinite(psi)]
+    if finite.size and np.ptp(finite) < 0.5 * np.pi:  # TT or TR: zoom in on the oscillation
+        pad = 0.1 * max(np.ptp(finite), 1e-3)
+        ax.set_ylim(min(finite.min(), 0.0) - pad, max(finite.max(), 0.0) + pad)
+        ax.axhline(0.0, color="0.6", lw=0.8, ls=":")
+    else:  # TU: the full range, with the half-turn levels
+        for level in (-0.5 * np.pi, 0.0, 0.5 * np.pi):
+            ax.axhline(level, color="0.6", lw=0.8, ls="--" if level else ":")
+        ax.set_ylim(-0.55 * np.pi, 0.55 * np.pi)
     ax.set_xlabel("t")
     ax.set_ylabel(r"$\psi$ [rad]")
     ax.secondary_yaxis("right", functions=(np.degrees, np.radians)).set_ylabel(r"$\psi$ [deg]")
