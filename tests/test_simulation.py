@@ -206,3 +206,15 @@ def test_damped_oscillation_fit_recovers_its_parameters(omega):
     assert fit.rms_residual < 2e-6
     with pytest.raises(ValueError, match="periods"):
         fit_damped_oscillation(t[:100], psi[:100], t_min=0.0)
+
+
+def test_split_stress_at_saved_steps_adds_up(tmp_path):
+    run = simulate(params(t_end=0.04, split_stress=True), out=tmp_path / "s.h5")
+    s = read_run(tmp_path / "s.h5").series
+    total = s["S_bending"] + s["S_flow"]
+    assert np.isfinite(total).all()
+    np.testing.assert_allclose(total, s["S"], atol=1e-5 * np.abs(s["S"]).max())
+    np.testing.assert_allclose(s["S"][:, 0, 2], s["S_xz"], rtol=1e-14)
+    plain = simulate(params(t_end=0.02)).series
+    assert np.isnan(plain["S_bending"]).all() and np.isnan(plain["S_flow"]).all()
+    np.testing.assert_array_equal(run.coefficients[:2], simulate(params(t_end=0.02)).coefficients)

@@ -100,6 +100,7 @@ class RunParameters:
     recenter_threshold: float = 1e-4
     steady_tol: float = 0.0  # stop when max |dr/dt| falls below this (0: never)
     periods: int = 0  # stop after this many psi periods (0: never)
+    split_stress: bool = False  # also store S^B and S^V at saved steps (two more solves each)
     checkpoint_every: float = 60.0  # wall seconds between checkpoints
 
     def __post_init__(self) -> None:

@@ -52,6 +52,8 @@ SERIES = {
     "reduced_volume": (),
     "bending_energy": (),
     "S": (3, 3),
+    "S_bending": (3, 3),  # the split S = S^B + S^V (SPEC §11); nan unless asked for
+    "S_flow": (3, 3),
     "S_xz": (),
     "N1": (),
     "N2": (),

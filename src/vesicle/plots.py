@@ -172,6 +172,10 @@ def _plot_stress(run: RunData, path: Path, dpi: int) -> Path:
         if np.any(np.isfinite(y)):
             ax.plot(t, y, lw=1.5, label=label)  # NaN entries leave gaps
             plotted += 1
+    for key, label, style in (("S_bending", "bending", "--"), ("S_flow", "flow", "-.")):
+        part = np.asarray(run.series.get(key, np.full((t.size, 3, 3), np.nan)), dtype=float)
+        if part.ndim == 3 and np.any(np.isfinite(part[:, 0, 2])):  # the split S_xz
+            ax.plot(t, part[:, 0, 2], ls=style, color="C0", lw=1.0, label=rf"$S_{{xz}}$ {label}")
     if plotted:
         ax.axhline(0.0, color="0.6", lw=0.8, ls=":")
         ax.legend(loc="best")

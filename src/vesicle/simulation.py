@@ -21,6 +21,7 @@ from .analysis import classify_regime, diagnose, fit_damped_oscillation
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
 from .flows import FLOWS
 from .io import SERIES, RunData, write_run
+from .solver import solve_flow
 from .surface import Shape
 
 __all__ = ["SimulationError", "load_parameters", "simulate", "summarize"]
@@ -49,10 +50,29 @@ def _new_run(params: RunParameters, shape: Shape) -> RunData:
     return RunData(parameters, series, coefficients)
 
 
-def _record(run: RunData, ev: Evaluation, state: StepState, dt: float) -> float:
+def _split_stress(ev: Evaluation, params: RunParameters):
+    """The stress, ``S^B`` and ``S^V`` of the evaluated shape, solved at the steady tolerances
+    (1e-6/1e-7: the parts must add up to the total well below the stress differences of
+    interest); ``(ev's stress, nan, nan)`` when the split was not asked for."""
+    nan = np.full((3, 3), np.nan)
+    if not params.split_stress or params.chi == 0.0:
+        return ev.flow.stress, nan, nan
+    r = solve_flow(
+        ev.shape,
+        lam=params.lam,
+        chi=params.chi,
+        flow=params.flow,
+        tolerances="steady",
+        sigma0=ev.flow.sigma,
+        split=True,
+    )
+    return r.stress, r.split["bending"].S, r.split["flow"].S
+
+
+def _record(run: RunData, ev: Evaluation, state: StepState, dt: float, params: RunParameters):
     """Append the diagnostics of the evaluated state; returns its psi."""
     d = diagnose(ev.shape)
-    stress = ev.flow.stress
+    stress, s_bending, s_flow = _split_stress(ev, params)
     row = {
         "t": state.t,
         "psi": d.psi,
@@ -64,6 +84,8 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float) -> float:
         "reduced_volume": d.reduced_volume,
         "bending_energy": d.bending_energy,
         "S": stress.S,
+        "S_bending": s_bending,
+        "S_flow": s_flow,
         "S_xz": stress.S_xz,
         "N1": stress.N1,
         "N2": stress.N2,
@@ -76,7 +98,11 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float) -> float:
         "spectrum": d.spectrum,
     }
     for key, value in row.items():
-        run.series[key] = np.concatenate([run.series[key], np.asarray(value, float)[None]])
+        value = np.asarray(value, float)
+        old = run.series.get(key)
+        if old is None:  # a file written before this series existed
+            old = np.full((run.n_saved, *value.shape), np.nan)
+        run.series[key] = np.concatenate([old, value[None]])
     run.coefficients = np.concatenate([run.coefficients, ev.shape.coefficients[None]])
     return d.psi
 
@@ -158,7 +184,7 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
     dt_taken = 0.0
     while True:
         if state.t >= state.next_save - eps:
-            psi = _record(run, current, state, dt_taken)
+            psi = _record(run, current, state, dt_taken, params)
             state.next_save = state.t + params.save_every
         if state.t >= params.t_end - eps or _should_stop(params, run, current):
             break

@@ -151,6 +151,11 @@ def _sigterm(*_) -> None:
 )
 @click.option("--periods", type=int, default=0, help="Stop after this many periods of psi.")
 @click.option(
+    "--split-stress",
+    is_flag=True,
+    help="Also store the bending and flow parts of the stress at saved steps (2 more solves each).",
+)
+@click.option(
     "--checkpoint-every",
     type=float,
     default=60.0,
