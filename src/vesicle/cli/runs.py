@@ -162,6 +162,13 @@ def _sigterm(*_) -> None:
     show_default=True,
     help="Wall seconds between checkpoints.",
 )
+@click.option(
+    "--tolerances",
+    type=click.Choice(["time-dependent", "steady"]),
+    default="time-dependent",
+    show_default=True,
+    help="Velocity-solve tolerances (SPEC §6): 1e-3/1e-4, or the tight 1e-6/1e-7.",
+)
 @click.option("--no-drift-control", is_flag=True, help="Do not restore area and volume.")
 @click.option(
     "--drift-tol",
