@@ -23,6 +23,12 @@ from ..surface import ShapeError
 from ..vtk import export_vtk
 from .base import fail, main
 
+
+def _default(name: str):
+    """The library's default of a :class:`RunParameters` field (one source for CLI and API)."""
+    return RunParameters.__dataclass_fields__[name].default
+
+
 CSV_COLUMNS = (
     "t",
     "psi",
@@ -102,14 +108,20 @@ def _sigterm(*_) -> None:
 
 
 @main.command()
-@click.option("--v", "v", type=float, default=0.95, show_default=True, help="Reduced volume.")
-@click.option("--lam", type=float, default=1.0, show_default=True, help="Viscosity ratio.")
-@click.option("--chi", type=float, default=1.0, show_default=True, help="Shear rate.")
+@click.option(
+    "--v", "v", type=float, default=_default("v"), show_default=True, help="Reduced volume."
+)
+@click.option(
+    "--lam", type=float, default=_default("lam"), show_default=True, help="Viscosity ratio."
+)
+@click.option("--chi", type=float, default=_default("chi"), show_default=True, help="Shear rate.")
 @click.option("--flow", type=click.Choice(sorted(FLOWS)), default="shear", show_default=True)
 @click.option("--t-end", type=float, default=1.0, show_default=True, help="End time.")
 @click.option("--out", type=click.Path(dir_okay=False), default="run.h5", show_default=True)
 @click.option("--grid", type=int, default=24, show_default=True, help="n_theta of the grid.")
-@click.option("--degree", type=int, default=8, show_default=True, help="Shape degree N.")
+@click.option(
+    "--degree", type=int, default=_default("degree"), show_default=True, help="Shape degree N."
+)
 @click.option(
     "--init",
     default="spheroid",
@@ -125,20 +137,26 @@ def _sigterm(*_) -> None:
 @click.option("--perturb", type=float, default=0.0, help="Random perturbation amplitude.")
 @click.option("--seed", type=int, default=0, help="Seed of the random perturbation.")
 @click.option(
-    "--save-every", type=float, default=0.05, show_default=True, help="Time between saved steps."
+    "--save-every",
+    type=float,
+    default=_default("save_every"),
+    show_default=True,
+    help="Time between saved steps.",
 )
 @click.option(
     "--rtol",
     type=float,
-    default=1e-4,
+    default=_default("rtol"),
     show_default=True,
     help="Local error per step, relative to the mean radius.",
 )
-@click.option("--dt-max", type=float, default=0.05, show_default=True, help="Largest time step.")
+@click.option(
+    "--dt-max", type=float, default=_default("dt_max"), show_default=True, help="Largest time step."
+)
 @click.option(
     "--integrator",
     type=click.Choice(INTEGRATORS),
-    default="ros2",
+    default=_default("integrator"),
     show_default=True,
     help="ros2: linearly implicit in the bending stiffness (2 solves per step); "
     "bs3, heun: explicit (3 and 2 solves per step, step limited by bending stiffness).",
@@ -158,14 +176,14 @@ def _sigterm(*_) -> None:
 @click.option(
     "--checkpoint-every",
     type=float,
-    default=60.0,
+    default=_default("checkpoint_every"),
     show_default=True,
     help="Wall seconds between checkpoints.",
 )
 @click.option(
     "--tolerances",
     type=click.Choice(["time-dependent", "steady"]),
-    default="time-dependent",
+    default=_default("tolerances"),
     show_default=True,
     help="Velocity-solve tolerances (SPEC §6): 1e-3/1e-4, or the tight 1e-6/1e-7.",
 )
@@ -173,7 +191,7 @@ def _sigterm(*_) -> None:
 @click.option(
     "--drift-tol",
     type=float,
-    default=1e-5,
+    default=_default("drift_tol"),
     show_default=True,
     help="Relative area/volume drift at which both are restored.",
 )
