@@ -30,47 +30,49 @@ def test_table1_row_at_N8():
     assert r.residual < 1e-8
 
 
-def test_time_stepping_agrees_with_stability():
-    r = steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
-    w_r, w_i = stability(r).most_unstable
+@pytest.fixture(scope="module")
+def steady4():
+    """The SPEC §14 case (v = 0.95, lam = 8, chi = 10) at N = 4 on 16 x 32."""
+    return steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
+
+
+def _run_from(shape, **changes):
+    """Time-step the SPEC §14 case at N = 4, 16 x 32, from ``shape`` to t = 12."""
     params = RunParameters(
-        v=0.95,
-        lam=8.0,
-        chi=10.0,
-        grid=16,
-        degree=4,
-        t_end=12.0,
-        save_every=0.02,
-        rtol=1e-5,
-        tolerances="steady",
+        **{
+            "v": 0.95,
+            "lam": 8.0,
+            "chi": 10.0,
+            "grid": 16,
+            "degree": 4,
+            "t_end": 12.0,
+            "save_every": 0.02,
+            "tolerances": "steady",
+            **changes,
+        }
     )
-    run = simulate(params, start=r.shape.perturbed(0.01, seed=4, degree=4))
+    return simulate(params, start=shape)
+
+
+def test_time_stepping_agrees_with_stability(steady4):
+    r = steady4
+    w_r, w_i = stability(r).most_unstable
+    run = _run_from(r.shape.perturbed(0.01, seed=4, degree=4), rtol=1e-5)
     fit = fit_damped_oscillation(run.series["t"], run.series["psi"], t_min=1.0)
     assert fit.omega_R == pytest.approx(w_r, rel=0.02)
     assert fit.omega_I == pytest.approx(w_i, rel=0.05)
 
 
-def test_out_of_plane_mode_agrees_with_general_stability():
+def test_out_of_plane_mode_agrees_with_general_stability(steady4):
     """The least damped non-symmetric mode tilts the vesicle out of the shear plane: a tilted
     start's long axis leaves the x-z plane and returns with the mode's (omega_R, omega_I)."""
-    r = steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
+    r = steady4
     general = stability(r, modes="general")
     symmetric = np.abs(stability(r).omega[:, 0])
     out_of_plane = next(
         w for w in general.omega if np.min(np.abs(symmetric - abs(w[0]))) > 1e-3 * abs(w[0])
     )
-    params = RunParameters(
-        v=0.95,
-        lam=8.0,
-        chi=10.0,
-        grid=16,
-        degree=4,
-        t_end=12.0,
-        save_every=0.02,
-        tilt=2.0,
-        tolerances="steady",
-    )
-    run = simulate(params, start=r.shape)
+    run = _run_from(r.shape, tilt=2.0)
     fit = fit_damped_oscillation(run.series["t"], run.series["axes"][:, 0, 1], t_min=1.0)
     assert fit.omega_R == pytest.approx(abs(out_of_plane[0]), rel=0.01)
     assert fit.omega_I == pytest.approx(out_of_plane[1], rel=0.05)
