@@ -24,6 +24,7 @@ __all__ = [
     "classify_regime",
     "diagnose",
     "fit_damped_oscillation",
+    "local_minima",
     "ray_radius",
     "recentered",
 ]
@@ -125,6 +126,12 @@ def diagnose(shape: Shape) -> ShapeDiagnostics:
     )
 
 
+def local_minima(y: np.ndarray) -> np.ndarray:
+    """Indices of the interior local minima of a series (the first of a flat pair)."""
+    y = np.asarray(y, float)
+    return np.nonzero((y[1:-1] < y[:-2]) & (y[1:-1] <= y[2:]))[0] + 1
+
+
 @dataclass(frozen=True)
 class Regime:
     """Result of :func:`classify_regime`."""
@@ -163,7 +170,7 @@ def classify_regime(
         period = float(np.mean(np.diff(times))) if times.size > 1 else None
         return Regime("TU", period, times, f"{jumps.size} half-turn jumps of psi")
     p = psi[last]
-    minima = np.nonzero((p[1:-1] < p[:-2]) & (p[1:-1] <= p[2:]))[0] + 1
+    minima = local_minima(p)
     spread = float(np.ptp(p))
     if spread < steady_tol:
         return Regime("TT", None, np.array([]), f"psi steady to {spread:.1e} over the tail")

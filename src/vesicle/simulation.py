@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import classify_regime, diagnose, fit_damped_oscillation
+from .analysis import classify_regime, diagnose, fit_damped_oscillation, local_minima
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
 from .flows import FLOWS
 from .io import SERIES, RunData, write_run
@@ -108,10 +108,12 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float, params: R
 
 
 class _Checkpointer:
-    def __init__(self, out: Path | None, every: float):
+    def __init__(self, out: Path | None, every: float, integ: Integrator):
         self.out, self.every, self.last = out, every, time.perf_counter()
+        self.integ = integ
 
     def __call__(self, run: RunData, state: StepState, force: bool = False) -> None:
+        state.solves = self.integ.solves  # the integrator counts; the state carries it
         if self.out is None or not (force or time.perf_counter() - self.last >= self.every):
             return
         run.checkpoint = state.to_checkpoint()
@@ -162,8 +164,9 @@ def simulate(
             volume0=shape.volume,
         )
         current = integ.evaluate(state.coefficients, None)
-        state.solves = integ.solves
-    checkpoint = _Checkpointer(Path(out) if out is not None else None, params.checkpoint_every)
+    checkpoint = _Checkpointer(
+        Path(out) if out is not None else None, params.checkpoint_every, integ
+    )
     try:
         _loop(params, integ, run, state, current, checkpoint, progress)
     except KeyboardInterrupt:
@@ -190,7 +193,6 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
             break
         dt = min(state.dt, state.next_save - state.t, params.t_end - state.t)
         result = integ.step(state.coefficients, dt, current)
-        state.solves = integ.solves
         if not result.accepted:
             state.rejected += 1
             state.dt = result.dt_next
@@ -212,7 +214,6 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
         else:
             state.sigma_in = result.sigma if result.final is None else result.final.flow.sigma
             current = integ.evaluate(state.coefficients, state.sigma_in)
-            state.solves = integ.solves
             state.corrections["evaluations"] += 1
         if progress is not None:
             progress(
@@ -249,7 +250,7 @@ def summarize(run: RunData) -> dict:
     ``drift`` is the relative change of area and volume from the first to the last saved step;
     ``corrections`` the total relative amounts the drift control removed.  ``oscillation``: when
     psi oscillates (a damped TT approach or TR), the fit of
-    ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the first psi minimum on
+    ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the second psi minimum on
     (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.
     """
     s = run.series
@@ -270,10 +271,10 @@ def summarize(run: RunData) -> dict:
     corrections = ck.get("corrections", {})
     oscillation = None
     if regime.name in ("TT", "TR") and regime.minima.size >= 2:
-        psi = s["psi"]
-        first = np.nonzero((psi[1:-1] < psi[:-2]) & (psi[1:-1] <= psi[2:]))[0]
+        minima = local_minima(s["psi"])
         try:  # from the second minimum of the whole series: past the start-up transient
-            fit = fit_damped_oscillation(t, psi, t_min=float(t[first[min(1, first.size - 1)] + 1]))
+            t_min = float(t[minima[min(1, minima.size - 1)]])
+            fit = fit_damped_oscillation(t, s["psi"], t_min=t_min)
             oscillation = {
                 "omega_R": fit.omega_R,
                 "omega_I": fit.omega_I,
