@@ -218,3 +218,21 @@ def test_split_stress_at_saved_steps_adds_up(tmp_path):
     plain = simulate(params(t_end=0.02)).series
     assert np.isnan(plain["S_bending"]).all() and np.isnan(plain["S_flow"]).all()
     np.testing.assert_array_equal(run.coefficients[:2], simulate(params(t_end=0.02)).coefficients)
+
+
+def test_post_step_recentres_then_restores_area_and_volume():
+    """Re-centring re-measures the radius at degree N, which moves the area and volume; the
+    drift correction must come after it (it once came first and was undone)."""
+    from vesicle.dynamics import StepState, post_step
+    from vesicle.sphere.transforms import resize
+
+    p = params(degree=6, grid=16, drift_tol=1e-9)
+    base = vs.Shape.spheroid(0.95, 16, 6)
+    state = StepState(0.0, base.coefficients, 1e-3, area0=base.area, volume0=base.volume)
+    off = recentered(base, origin=np.array([0.05, 0.0, 0.03]))  # centroid now off the origin
+    moved = vs.Shape(resize(off.coefficients, 6) * (1 + 3e-5), 16)  # and area/volume drifted
+    shape, changed = post_step(moved, state, p)
+    assert changed and state.corrections["recentered"] == 1
+    assert np.linalg.norm(shape.centroid) < p.recenter_threshold
+    assert abs(shape.area / base.area - 1) <= p.drift_tol
+    assert abs(shape.volume / base.volume - 1) <= p.drift_tol
