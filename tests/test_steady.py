@@ -9,7 +9,7 @@ from vesicle.dynamics import RunParameters
 from vesicle.simulation import simulate
 from vesicle.solver import SolverTolerances
 from vesicle.stability import FullBasis, critical_lambda, stability
-from vesicle.steady import SymmetricBasis, _Problem, steady_tank_treading
+from vesicle.steady import NewtonError, SymmetricBasis, _Problem, steady_tank_treading
 
 
 @pytest.fixture(scope="module")
@@ -41,6 +41,33 @@ def test_general_modes_confirm_symmetric_ones_are_most_unstable(steady):
     gen = stability(steady, modes="general")
     assert gen.most_unstable == pytest.approx(sym, rel=1e-4)
     assert gen.omega.shape[0] == FullBasis(4).size - 2 - 3  # constraints and translations
+
+
+def test_continuation_reuses_the_neighbours_jacobian(steady):
+    """Started from a neighbouring SteadyResult, Newton takes chord steps on its Jacobian: the
+    same state as a fresh Newton from the same start, for a fraction of the solves."""
+    chord = steady_tank_treading(0.95, 8.2, 10.0, degree=4, grid=16, initial=steady)
+    fresh = steady_tank_treading(0.95, 8.2, 10.0, degree=4, grid=16, initial=steady.a)
+    np.testing.assert_allclose(chord.a, fresh.a, atol=1e-8)
+    assert chord.residual < 1e-8
+    # both end with the same central-difference stability Jacobian (2 solves per column)
+    stability_solves = 2 * steady.basis.size + 3
+    assert chord.solves - stability_solves < 0.5 * (fresh.solves - stability_solves)
+
+
+def test_chord_falls_back_to_newton_when_the_jacobian_is_poor(steady):
+    """A far neighbour (lam 8 -> 6.5): chord steps stop paying, Newton takes over and converges."""
+    far = steady_tank_treading(0.95, 6.5, 10.0, degree=4, grid=16, initial=steady)
+    assert far.converged and far.residual < 1e-8
+    r = np.array(far.residual_history)
+    assert r[-1] < 10 * r[-2] ** 1.6  # quadratic at the end: fresh Jacobians
+
+
+def test_newton_from_too_far_reports_its_history(steady):
+    """lam 8 -> 5 in one jump diverges (steps are halved to stay representable): a NewtonError
+    with the residual history, not a ShapeError from deep inside."""
+    with pytest.raises(NewtonError, match=r"\([1-9][0-9]* of them halved"):
+        steady_tank_treading(0.95, 5.0, 10.0, degree=4, grid=16, initial=steady, max_iterations=6)
 
 
 def test_parallel_jacobian_is_identical_to_serial(steady):

@@ -117,6 +117,7 @@ def critical_lambda(
     degree: int = 8,
     grid: int = 32,
     lam0: float | None = None,
+    step: float = 0.05,
     factor: float = 1.5,
     xtol: float = 1e-3,
     executor: Executor | None = None,
@@ -124,9 +125,13 @@ def critical_lambda(
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
 
-    Starts at ``lam0`` (default: the leading-order estimate, at least 1), multiplies or divides
-    by ``factor`` until ``max omega_I`` changes sign, then Brent's method; each evaluation
-    starts Newton from the nearest solution found so far.
+    Starts at ``lam0`` (default: the leading-order estimate, at least 1) and at ``lam0`` moved
+    by the relative ``step`` towards the crossing (up when stable); then secant steps in
+    ``log lam``, pushed 20 % past the predicted root and limited to a factor ``factor``, until
+    ``max omega_I`` changes sign; then Brent's method to ``xtol``.  Each evaluation starts
+    Newton from the nearest solution found so far, with chord iterations on its Jacobian
+    (:func:`steady_tank_treading`), so a nearby evaluation costs little more than the
+    stability Jacobian itself.
     """
     history: list[tuple[float, float, float]] = []
     solutions: dict[float, SteadyResult] = {}
@@ -138,7 +143,7 @@ def critical_lambda(
         start = None
         if solutions:
             nearest = min(solutions, key=lambda x: abs(np.log(x / lam)))
-            start = solutions[nearest].a
+            start = solutions[nearest]
         try:
             steady = steady_tank_treading(
                 v, lam, chi, degree, grid, initial=start, executor=executor, progress=progress
@@ -153,23 +158,32 @@ def critical_lambda(
             progress({"lam": lam, "omega_R": w_r, "omega_I": w_i})
         return w_i
 
+    if not step > 0 or not factor > 1:
+        raise ValueError(f"need step > 0 and factor > 1, got step={step}, factor={factor}")
     lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(v))
-    lo, g_lo = lam, growth(lam)
-    hi, g_hi = lo, g_lo
+    points = [(lam, growth(lam))]
+    lam = lam * (1.0 + step) if points[0][1] < 0 else lam / (1.0 + step)
+    points.append((lam, growth(lam)))
     for _ in range(12):
-        if g_lo * g_hi < 0:
+        (l0, g0), (l1, g1) = points[-2:]
+        if g0 * g1 <= 0:
             break
-        if g_hi < 0:  # stable: raise lambda
-            lo, g_lo = hi, g_hi
-            hi = hi * factor
-            g_hi = growth(hi)
-        else:
-            hi, g_hi = lo, g_lo
-            lo = lo / factor
-            g_lo = growth(lo)
-    else:
-        raise RuntimeError("could not bracket lambda_c: max omega_I did not change sign")
-    lam_c = brentq(growth, min(lo, hi), max(lo, hi), xtol=xtol)
+        direction = 1.0 if g1 < 0 else -1.0  # growth rises with lam: stable means go up
+        x0, x1 = np.log(l0), np.log(l1)
+        move = -1.2 * g1 * (x1 - x0) / (g1 - g0) if g1 != g0 else np.inf
+        if not move * direction > 0:  # the secant points away from the crossing
+            move = direction * np.log(factor)
+        move = direction * min(abs(move), np.log(factor))
+        lam = float(np.exp(x1 + move))
+        points.append((lam, growth(lam)))
+    if points[-2][1] * points[-1][1] > 0:
+        raise RuntimeError(
+            "could not bracket lambda_c: max omega_I did not change sign at lam = "
+            + ", ".join(f"{p[0]:.4g}" for p in points)
+        )
+    (l0, _), (l1, _) = points[-2:]
+    lo, hi = min(l0, l1), max(l0, l1)
+    lam_c = brentq(growth, lo, hi, xtol=xtol)
     nearest = min(history, key=lambda h: abs(h[0] - lam_c))
     kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"
     return CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history))

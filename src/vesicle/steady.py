@@ -27,7 +27,7 @@ from .rheology import ParticleStress
 from .solver import SolverTolerances, solve_flow
 from .sphere.rotation import rotation_matrix
 from .sphere.transforms import transform
-from .surface import Shape, spheroid_axes
+from .surface import Shape, ShapeError, spheroid_axes
 from .theory import misbah_tt_inclination
 
 __all__ = [
@@ -230,11 +230,12 @@ def steady_tank_treading(
     chi: float,
     degree: int = 8,
     grid: int = 32,
-    initial: np.ndarray | Shape | None = None,
+    initial: np.ndarray | Shape | SteadyResult | None = None,
     tolerance: float = 1e-8,
     max_iterations: int = 12,
     solver_tolerances: SolverTolerances | None = None,
     executor: Executor | None = None,
+    chord_contraction: float = 0.7,
     progress=None,
 ) -> SteadyResult:
     """Newton–Raphson for the steady tank-treading shape (SPEC §8).
@@ -245,8 +246,12 @@ def steady_tank_treading(
         Reduced volume, viscosity ratio, shear rate.
     degree, grid : int
         Shape degree N and grid n_theta.
-    initial : array of symmetric coefficients, Shape, or None
-        Start (a neighbouring solution for continuation); default :func:`initial_guess`.
+    initial : array of symmetric coefficients, Shape, SteadyResult, or None
+        Start; default :func:`initial_guess`.  A :class:`SteadyResult` (a neighbouring solution,
+        for continuation in lam, chi or v) also gives the multipliers and, at the same degree
+        and grid, its Jacobian: Newton then starts with chord iterations on that Jacobian (one
+        solve each instead of one per column) and forms a fresh one as soon as an iteration
+        fails to reduce the residual by ``chord_contraction``.
     tolerance : float
         Converged when the residual's max-norm is below ``tolerance`` (relative to ``chi`` for
         the dynamic part).
@@ -255,6 +260,8 @@ def steady_tank_treading(
         1e-6/1e-7 so that the finite-difference Jacobian is clean.
     executor : concurrent.futures.Executor, optional
         Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
+    chord_contraction : float
+        Largest residual ratio accepted from a chord iteration (see ``initial``).
     progress : callable, optional
         Called after every Newton iteration with ``{"iteration", "residual", "seconds"}``
         (``critical_lambda`` passes its own callback through, which also gets ``{"lam",
@@ -267,33 +274,69 @@ def steady_tank_treading(
     t0 = time.perf_counter()
     tol = solver_tolerances or SolverTolerances(1e-8, 1e-9)
     P = _Problem(float(v), float(lam), float(chi), degree, grid, tol, executor)
+    mult = np.zeros(2)
+    chord = None  # a neighbour's Jacobian, used until it stops paying
     if initial is None:
         a = initial_guess(v, lam, degree, grid)
+    elif isinstance(initial, SteadyResult):
+        a = P.basis.from_coefficients(initial.shape.with_degree(degree).coefficients)
+        mult = np.array(initial.multipliers, float)
+        same = initial.basis.degree == degree and initial.params.get("grid") == grid
+        chord = initial.jacobian if same else None
     elif isinstance(initial, Shape):
         a = P.basis.from_coefficients(initial.with_degree(degree).coefficients)
     else:
         a = np.asarray(initial, float).copy()
-    mult = np.zeros(2)
     history: list[float] = []
     sigma = None
     converged = False
+    previous = None  # the last iterate a step was taken from
+    halved = 0  # Newton steps halved to stay representable
     for it in range(max_iterations + 1):
-        shape = P.shape(a)
-        rate, flow = P.adot(a, sigma)
-        sigma = flow.sigma
-        g = _gradients(shape, P.basis, P.phi)
-        G = np.concatenate([rate - mult @ g, [shape.area - P.area0, shape.volume - P.volume0]])
-        res = float(np.max(np.abs(G[:-2])) / abs(chi) + np.max(np.abs(G[-2:])))
-        history.append(res)
-        log.info("Newton %d: residual %.3e (%.1f s)", it, res, time.perf_counter() - t0)
-        if progress is not None:
-            progress({"iteration": it, "residual": res, "seconds": time.perf_counter() - t0})
-        if res < tolerance:
-            converged = True
-            break
+        try:
+            shape = P.shape(a)
+            rate, flow = P.adot(a, sigma)
+        except ShapeError as err:
+            if previous is None:
+                raise
+            if it == max_iterations:  # report the last representable iterate
+                a, mult, rate, sigma, g, G, flow = previous
+                break
+            if chord is not None:
+                log.info("chord step left the representable shapes (%s): fresh Jacobian", err)
+                chord = None
+                a, mult, rate, sigma, g, G, flow = previous
+            else:  # a Newton step too long for the radial representation: halve it
+                log.info("Newton step left the representable shapes (%s): halved", err)
+                halved += 1
+                step = 0.5 * step
+                a, mult = previous[0] + step[: a.size], previous[1] + step[a.size :]
+                continue
+        else:
+            sigma = flow.sigma
+            g = _gradients(shape, P.basis, P.phi)
+            G = np.concatenate(
+                [rate - mult @ g, [shape.area - P.area0, shape.volume - P.volume0]]
+            )
+            res = float(np.max(np.abs(G[:-2])) / abs(chi) + np.max(np.abs(G[-2:])))
+            history.append(res)
+            log.info("Newton %d: residual %.3e (%.1f s)", it, res, time.perf_counter() - t0)
+            if progress is not None:
+                progress({"iteration": it, "residual": res, "seconds": time.perf_counter() - t0})
+            if res < tolerance:
+                converged = True
+                break
+            if chord is not None and previous is not None:
+                ratio = res / history[-2]
+                if ratio > chord_contraction:
+                    log.info("chord step contracted by %.2f only: fresh Jacobian", ratio)
+                    chord = None
+                    if ratio > 1.0:  # it made things worse: step from the last iterate instead
+                        a, mult, rate, sigma, g, G, flow = previous
         if it == max_iterations:
             break
-        M = P.jacobian(a, rate, sigma)
+        previous = (a, mult, rate, sigma, g, G, flow)
+        M = chord if chord is not None else P.jacobian(a, rate, sigma)
         step = _newton_step(M, g, G)
         a = a + step[: a.size]
         mult = mult + step[a.size :]
@@ -304,8 +347,10 @@ def steady_tank_treading(
     result = _result(P, a, mult, history, converged, M, g, flow, t0)
     if not converged:
         raise NewtonError(
-            f"Newton did not converge in {max_iterations} iterations: residual "
-            f"history {', '.join(f'{r:.1e}' for r in history)}",
+            f"Newton did not converge in {max_iterations} iterations ({halved} of them halved "
+            f"steps that left the radial representation): residual history "
+            f"{', '.join(f'{r:.1e}' for r in history)}; start closer (continuation in small "
+            "steps) or from a short time-dependent run",
             result,
         )
     return result

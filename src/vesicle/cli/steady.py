@@ -84,10 +84,17 @@ def tt(v, lam, chi, degree, grid, with_stability, modes, workers, as_json) -> No
 @click.option("--degree", type=int, default=8, show_default=True, help="Shape degree N.")
 @click.option("--grid", type=int, default=32, show_default=True, help="n_theta of the grid.")
 @click.option("--lam0", type=float, default=None, help="First lambda to try.")
+@click.option(
+    "--step",
+    type=float,
+    default=0.05,
+    show_default=True,
+    help="Relative move of lambda from --lam0 to the second evaluation; secant steps follow.",
+)
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
 @click.option("--workers", type=int, default=1, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def critical(v, chi, degree, grid, lam0, xtol, workers, as_json) -> None:
+def critical(v, chi, degree, grid, lam0, step, xtol, workers, as_json) -> None:
     """Critical viscosity ratio where steady tank-treading loses stability."""
     try:
         with _executor(workers) as pool:
@@ -97,6 +104,7 @@ def critical(v, chi, degree, grid, lam0, xtol, workers, as_json) -> None:
                 degree=degree,
                 grid=grid,
                 lam0=lam0,
+                step=step,
                 xtol=xtol,
                 executor=pool,
                 progress=_echo_progress,
