@@ -292,6 +292,7 @@ def steady_tank_treading(
     converged = False
     previous = None  # the last iterate a step was taken from
     halved = 0  # Newton steps halved to stay representable
+    step = np.zeros(a.size + 2)
     for it in range(max_iterations + 1):
         try:
             shape = P.shape(a)
@@ -315,9 +316,7 @@ def steady_tank_treading(
         else:
             sigma = flow.sigma
             g = _gradients(shape, P.basis, P.phi)
-            G = np.concatenate(
-                [rate - mult @ g, [shape.area - P.area0, shape.volume - P.volume0]]
-            )
+            G = np.concatenate([rate - mult @ g, [shape.area - P.area0, shape.volume - P.volume0]])
             res = float(np.max(np.abs(G[:-2])) / abs(chi) + np.max(np.abs(G[-2:])))
             history.append(res)
             log.info("Newton %d: residual %.3e (%.1f s)", it, res, time.perf_counter() - t0)
