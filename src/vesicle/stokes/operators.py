@@ -31,6 +31,7 @@ from threadpoolctl import threadpool_limits
 
 from ..sphere.transforms import transform
 from ..surface import Shape
+from .fused import ring_components
 from .quadrature import RingGeometry, SingularQuadrature, singular_quadrature
 
 __all__ = ["METHODS", "LayerPotentials", "double_layer", "single_layer"]
@@ -38,6 +39,9 @@ __all__ = ["METHODS", "LayerPotentials", "double_layer", "single_layer"]
 log = logging.getLogger(__name__)
 
 METHODS = ("assembled", "matrix-free")
+
+#: Implementations of the assembly's kernel evaluation: fused and compiled, or the NumPy reference.
+BACKENDS = ("numba", "numpy")
 
 #: The two layer potentials, in assembly order.
 KERNELS = ("single", "double")
@@ -67,6 +71,9 @@ class LayerPotentials:
         The operators the caller will apply: "assembled" builds them together, in one pass over
         the rings, on first need (an operator not listed is still available; it is then built
         on its own).  The velocity solve at ``lam = 1`` needs only the single layer.
+    backend : {"numba", "numpy"}
+        Kernel evaluation in assembly: the fused compiled kernel of :mod:`.fused` (default) or
+        the NumPy reference, which is slower and builds the same matrices to rounding.
     """
 
     def __init__(
@@ -76,7 +83,11 @@ class LayerPotentials:
         method: str = "assembled",
         workers: int | None = None,
         kernels: tuple[str, ...] = KERNELS,
+        backend: str = "numba",
     ):
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        self.backend = backend
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
         if not kernels or any(k not in KERNELS for k in kernels):
@@ -148,8 +159,21 @@ class LayerPotentials:
         return np.einsum("qk,iqk->ik", coef, g.xh) - 4.0 * np.pi * u0
 
     # ----------------------------------------------------------- assembly
-    def _assemble_ring(self, i: int, kinds: tuple[str, ...], out: dict[str, np.ndarray]) -> None:
-        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``."""
+    def _ring_components(
+        self, i: int, kinds: tuple[str, ...]
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """Kernel components of ``kinds`` at ring ``i``'s rotated nodes, (Q, 6 per kind, K), and
+        the double layer's subtraction diagonal ``-sum_q T n w J`` (K, 3, 3) if requested.
+
+        The one dispatch point between the fused kernel (:mod:`.fused`, default) and the NumPy
+        reference (``backend="numpy"``)."""
+        if self.backend == "numba":
+            q = self.quad
+            r, rt, rp = q.ring_radius(i, self.shape.coefficients)
+            return ring_components(
+                r, rt, rp, q.ring_frame(i), q.inv_sin_rot, q.weights_rot,
+                self.shape.grid.phi, self.shape.x[:, i], kinds,
+            )  # fmt: skip
         g = self.ring_geometry(i)
         inv_r = g.inv_r
         scal = {}
@@ -166,17 +190,24 @@ class LayerPotentials:
                 comps[:, p + k * n] = scal[kind] * xx
                 if kind == "single" and a == b:
                     comps[:, p + k * n] += diag
+        subtraction = None
+        if "double" in kinds:
+            subtraction = -np.einsum("qk,iqk,jqk->kij", scal["double"], g.xh, g.xh)
+        return comps, subtraction
+
+    def _assemble_ring(self, i: int, kinds: tuple[str, ...], out: dict[str, np.ndarray]) -> None:
+        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``."""
+        comps, subtraction = self._ring_components(i, kinds)
+        n = len(_PAIRS)
         rows = self.quad.pull_back(i, comps)  # (2, ntri, 6 per kind, K)
         for k, kind in enumerate(kinds):
             block = out[kind][:, :, :, :, i]  # transposed: (3 [density], 2, ntri, 3 [out], K)
             for p, (a, b) in enumerate(_PAIRS):
                 block[b, :, :, a] = rows[:, :, p + k * n]
                 block[a, :, :, b] = rows[:, :, p + k * n]
-        if "double" in kinds:
+        if subtraction is not None:
             # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
-            out["double_diagonal"][i] = -np.einsum(
-                "qk,iqk,jqk->kij", scal["double"], g.xh, g.xh
-            ) - 4.0 * np.pi * np.eye(3)
+            out["double_diagonal"][i] = subtraction - 4.0 * np.pi * np.eye(3)
 
     def _matrix(self, kind: str) -> np.ndarray:
         """The assembled ``kind`` operator; on first need, every kernel of ``self.kernels`` not

@@ -225,6 +225,28 @@ class SingularQuadrature:
         return np.cos(angles), np.sin(angles)
 
     # --------------------------------------------------------------- geometry
+    def ring_radius(
+        self, i: int, radius_coefficients: np.ndarray, targets: slice = slice(None)
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``r``, ``dr/dtheta'``, ``dr/dphi'`` at the rotated nodes of ring ``i``'s targets,
+        each (Q, K)."""
+        degree = radius_coefficients.shape[-1] - 1
+        if degree > self.lmax:
+            raise ValueError(f"shape degree {degree} exceeds the grid's {self.lmax}")
+        cp = self.phase(radius_coefficients[None], targets)  # (l, m, K)
+        return self.synthesize(self.rotate(i, cp, degree), derivative=True)
+
+    def ring_frame(self, i: int) -> np.ndarray:
+        """``e_r', e_theta', e_phi'`` at the rotated nodes, turned by ring ``i``'s y-rotation,
+        (3 [vector], 3 [component], Q)."""
+        Ry = rotation_matrix("y", self.grid.theta[i])
+        return np.stack([Ry @ e for e in self.basis_rot])
+
+    @cached_property
+    def inv_sin_rot(self) -> np.ndarray:
+        """``1 / sin(theta')`` at the Q rotated nodes."""
+        return 1.0 / np.sin(self.node_angles()[0])
+
     def ring_geometry(
         self, i: int, radius_coefficients: np.ndarray, x0: np.ndarray, targets: slice = slice(None)
     ) -> RingGeometry:
@@ -235,16 +257,10 @@ class SingularQuadrature:
         by ``R_ik = Rz(phi_k) Ry(theta_i)``: the ``Ry`` part is shared by the ring, the ``Rz`` part
         is a cheap per-target rotation of the x, y components.
         """
-        degree = radius_coefficients.shape[-1] - 1
-        if degree > self.lmax:
-            raise ValueError(f"shape degree {degree} exceeds the grid's {self.lmax}")
-        cp = self.phase(radius_coefficients[None], targets)  # (l, m, K)
-        r, rt, rp = self.synthesize(self.rotate(i, cp, degree), derivative=True)  # (Q, K)
-        Ry = rotation_matrix("y", self.grid.theta[i])
-        e_r, e_t, e_p = ((Ry @ e)[:, :, None] for e in self.basis_rot)  # (3, Q, 1)
-        sin_t = np.sin(self.node_angles()[0])[:, None]
+        r, rt, rp = self.ring_radius(i, radius_coefficients, targets)  # (Q, K)
+        e_r, e_t, e_p = self.ring_frame(i)[:, :, :, None]  # each (3, Q, 1)
         x_y = r * e_r  # components in the frame rotated by Rz(phi_k)
-        jn_y = r * (r * e_r - rt * e_t - (rp / sin_t) * e_p)
+        jn_y = r * (r * e_r - rt * e_t - (rp * self.inv_sin_rot[:, None]) * e_p)
         c, s = np.cos(self.grid.phi[targets]), np.sin(self.grid.phi[targets])
         x = np.stack([c * x_y[0] - s * x_y[1], s * x_y[0] + c * x_y[1], x_y[2]])
         jn = np.stack([c * jn_y[0] - s * jn_y[1], s * jn_y[0] + c * jn_y[1], jn_y[2]])

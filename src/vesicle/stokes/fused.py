@@ -1,0 +1,139 @@
+"""Fused kernel values at the rotated nodes of one ring (Numba), for layer-potential assembly.
+
+From the radius and its rotated-frame derivatives at the rotated nodes of the targets on one ring,
+one pass computes what :meth:`~vesicle.stokes.quadrature.SingularQuadrature.ring_geometry`
+followed by the kernel products of :class:`~vesicle.stokes.operators.LayerPotentials` computes
+with NumPy temporaries: position and weighted normal (turned to the lab frame by the target's
+z-rotation), then the six symmetric components
+
+- single layer: ``w J (delta_ab / r + xh_a xh_b / r^3)``;
+- double layer: ``-6 (xh . w J n) xh_a xh_b / r^5``, and the sum of these over the nodes (the
+  singularity subtraction's diagonal).
+
+The NumPy path in :mod:`.operators` is the reference; tests hold this one to it.  Compiled on
+first use and cached on disk; it releases the GIL, so rings run in threads.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+__all__ = ["ring_components"]
+
+
+@njit(cache=True, nogil=True)
+def _fill(r, rt, rp, frame, inv_sin, w, cos_k, sin_k, x0, single, double, comps, diag):
+    n_nodes, n_targets = r.shape
+    off = 6 if single else 0
+    for q in range(n_nodes):
+        er0, er1, er2 = frame[0, 0, q], frame[0, 1, q], frame[0, 2, q]
+        et0, et1, et2 = frame[1, 0, q], frame[1, 1, q], frame[1, 2, q]
+        ep0, ep1, ep2 = frame[2, 0, q], frame[2, 1, q], frame[2, 2, q]
+        wq, isq = w[q], inv_sin[q]
+        for k in range(n_targets):
+            rr, rtt, rpp = r[q, k], rt[q, k], rp[q, k] * isq
+            # x and J n = r (r e_r - r_theta e_theta - r_phi / sin e_phi) in the Ry frame
+            y0, y1, y2 = rr * er0, rr * er1, rr * er2
+            n0 = rr * (rr * er0 - rtt * et0 - rpp * ep0)
+            n1 = rr * (rr * er1 - rtt * et1 - rpp * ep1)
+            n2 = rr * (rr * er2 - rtt * et2 - rpp * ep2)
+            c, s = cos_k[k], sin_k[k]
+            h0 = c * y0 - s * y1 - x0[0, k]
+            h1 = s * y0 + c * y1 - x0[1, k]
+            h2 = y2 - x0[2, k]
+            m0, m1 = c * n0 - s * n1, s * n0 + c * n1
+            weight = wq * np.sqrt(m0 * m0 + m1 * m1 + n2 * n2)
+            d2 = h0 * h0 + h1 * h1 + h2 * h2
+            inv_r = 1.0 / np.sqrt(d2)
+            p00, p01, p02 = h0 * h0, h0 * h1, h0 * h2
+            p11, p12, p22 = h1 * h1, h1 * h2, h2 * h2
+            if single:
+                a = weight * inv_r * inv_r * inv_r
+                b = weight * inv_r
+                comps[q, 0, k] = a * p00 + b
+                comps[q, 1, k] = a * p01
+                comps[q, 2, k] = a * p02
+                comps[q, 3, k] = a * p11 + b
+                comps[q, 4, k] = a * p12
+                comps[q, 5, k] = a * p22 + b
+            if double:
+                ir2 = inv_r * inv_r
+                t = -6.0 * wq * (h0 * m0 + h1 * m1 + h2 * n2) * ir2 * ir2 * inv_r
+                v00, v01, v02 = t * p00, t * p01, t * p02
+                v11, v12, v22 = t * p11, t * p12, t * p22
+                comps[q, off + 0, k] = v00
+                comps[q, off + 1, k] = v01
+                comps[q, off + 2, k] = v02
+                comps[q, off + 3, k] = v11
+                comps[q, off + 4, k] = v12
+                comps[q, off + 5, k] = v22
+                diag[k, 0, 0] -= v00
+                diag[k, 0, 1] -= v01
+                diag[k, 0, 2] -= v02
+                diag[k, 1, 1] -= v11
+                diag[k, 1, 2] -= v12
+                diag[k, 2, 2] -= v22
+
+
+def ring_components(
+    r: np.ndarray,
+    rt: np.ndarray,
+    rp: np.ndarray,
+    frame: np.ndarray,
+    inv_sin: np.ndarray,
+    weights: np.ndarray,
+    phi: np.ndarray,
+    x0: np.ndarray,
+    kinds: tuple[str, ...],
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """Kernel components at the rotated nodes of one ring's targets.
+
+    Parameters
+    ----------
+    r, rt, rp : (Q, K)
+        Radius and its ``theta'``, ``phi'`` derivatives at the rotated nodes of each target.
+    frame : (3, 3, Q)
+        ``e_r', e_theta', e_phi'`` at the nodes, turned by the ring's y-rotation.
+    inv_sin : (Q,)
+        ``1 / sin(theta')``.
+    weights : (Q,)
+        Quadrature weights of ``dOmega'``.
+    phi : (K,)
+        The targets' azimuths (their z-rotations).
+    x0 : (3, K)
+        The targets.
+    kinds : tuple of {"single", "double"}
+        In this order in the output.
+
+    Returns
+    -------
+    comps : (Q, 6 * len(kinds), K)
+        The six symmetric components ``(00, 01, 02, 11, 12, 22)`` of each kind.
+    diagonal : (K, 3, 3) or None
+        ``-sum_q`` of the double-layer components (symmetric), when "double" is in ``kinds``.
+    """
+    single, double = "single" in kinds, "double" in kinds
+    n_nodes, n_targets = r.shape
+    comps = np.empty((n_nodes, 6 * (single + double), n_targets))
+    diag = np.zeros((n_targets, 3, 3))
+    _fill(
+        np.ascontiguousarray(r),
+        np.ascontiguousarray(rt),
+        np.ascontiguousarray(rp),
+        np.ascontiguousarray(frame),
+        np.ascontiguousarray(inv_sin),
+        np.ascontiguousarray(weights),
+        np.cos(phi),
+        np.sin(phi),
+        np.ascontiguousarray(x0),
+        single,
+        double,
+        comps,
+        diag,
+    )
+    if not double:
+        return comps, None
+    iu = np.triu_indices(3, 1)
+    diag[:, iu[1], iu[0]] = diag[:, iu[0], iu[1]]
+    return comps, diag
