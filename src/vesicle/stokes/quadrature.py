@@ -200,14 +200,23 @@ class SingularQuadrature:
         else:
             G = ducc0.fft.c2c(vals.astype(np.complex128), axes=(0,), forward=True, inorm=0)
             F = G[np.arange(n) % self.n_rot_phi]
-        c = _real_matmul(self._legendre_adjoint, F)  # (m, l, B), w_m included
-        c = c.transpose(1, 0, 2)  # (l, m', B)
+        # Only l >= m (and m' <= l) is non-zero: loop over orders and degrees so that the
+        # Legendre and Wigner products skip the zero halves (a third of the full products),
+        # and write the Wigner output straight into the packed triangle.
+        adj = self._legendre_adjoint  # (m, l, a), w_m included
         plusT, minusT = self.wigner[2:]
-        re = np.matmul(plusT[i], np.ascontiguousarray(c.real))  # (l, m, B)
-        im = np.matmul(minusT[i], np.ascontiguousarray(c.imag))
-        li, mi = self.packed
-        re = re[li, mi].reshape(-1, b, k)
-        im = im[li, mi].reshape(-1, b, k)
+        parts = []
+        for part, wig in ((F.real, plusT[i]), (F.imag, minusT[i])):
+            part = np.ascontiguousarray(part)
+            c = np.zeros((n, n, b * k))  # (l, m', B)
+            for m in range(n):
+                c[m:, m] = adj[m, m:] @ part[m]
+            packed = np.empty((n * (n + 1) // 2, b * k))
+            for l in range(n):
+                start = l * (l + 1) // 2
+                packed[start : start + l + 1] = wig[l, : l + 1, : l + 1] @ c[l, : l + 1]
+            parts.append(packed.reshape(-1, b, k))
+        re, im = parts
         # adjoint of the z-phase e^{i m phi_k}: rotate (Re, Im) pairs by -m phi_k
         cos, sin = self._phase_parts
         cos, sin = cos[:, None, targets], sin[:, None, targets]
