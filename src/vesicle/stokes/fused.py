@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["ring_components"]
+__all__ = ["ring_components", "scatter_rows"]
 
 
 @njit(cache=True, nogil=True)
@@ -137,3 +137,43 @@ def ring_components(
     iu = np.triu_indices(3, 1)
     diag[:, iu[1], iu[0]] = diag[:, iu[0], iu[1]]
     return comps, diag
+
+
+_PAIR_A = np.array([0, 0, 0, 1, 1, 2])
+_PAIR_B = np.array([0, 1, 2, 1, 2, 2])
+
+
+@njit(cache=True, nogil=True)
+def _scatter(re, im, cos, sin, out, ring, first, pair_a, pair_b):
+    n_tri, _, n_targets = re.shape
+    for t in range(n_tri):
+        for p in range(6):
+            a, b = pair_a[p], pair_b[p]
+            for k in range(n_targets):
+                x, y = re[t, first + p, k], im[t, first + p, k]
+                c, s = cos[t, k], sin[t, k]
+                v0, v1 = x * c + y * s, y * c - x * s
+                out[b, 0, t, a, ring, k] = v0
+                out[b, 1, t, a, ring, k] = v1
+                out[a, 0, t, b, ring, k] = v0
+                out[a, 1, t, b, ring, k] = v1
+
+
+def scatter_rows(
+    re: np.ndarray,
+    im: np.ndarray,
+    cos: np.ndarray,
+    sin: np.ndarray,
+    out: np.ndarray,
+    ring: int,
+    first: int,
+) -> None:
+    """Write one kernel's operator rows for ring ``ring`` into the transposed matrix ``out``.
+
+    ``re``, ``im`` (T, components, K) are the pulled-back coefficients before the z-phase; the
+    six components ``first .. first + 5`` are one kernel's ``(00, 01, 02, 11, 12, 22)``.  The
+    phase ``e^{-i m phi_k}`` (``cos``, ``sin``: (T, K)) is applied on the way, and each symmetric
+    component is written to both of its places in ``out`` (3 [density], 2 [Re, Im], T,
+    3 [output], rings, K).  The NumPy equivalent is in ``LayerPotentials._assemble_ring``.
+    """
+    _scatter(re, im, cos, sin, out, ring, first, _PAIR_A, _PAIR_B)

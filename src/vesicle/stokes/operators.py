@@ -31,7 +31,7 @@ from threadpoolctl import threadpool_limits
 
 from ..sphere.transforms import transform
 from ..surface import Shape
-from .fused import ring_components
+from .fused import ring_components, scatter_rows
 from .quadrature import RingGeometry, SingularQuadrature, singular_quadrature
 
 __all__ = ["METHODS", "LayerPotentials", "double_layer", "single_layer"]
@@ -159,21 +159,40 @@ class LayerPotentials:
         return np.einsum("qk,iqk->ik", coef, g.xh) - 4.0 * np.pi * u0
 
     # ----------------------------------------------------------- assembly
-    def _ring_components(
-        self, i: int, kinds: tuple[str, ...]
-    ) -> tuple[np.ndarray, np.ndarray | None]:
-        """Kernel components of ``kinds`` at ring ``i``'s rotated nodes, (Q, 6 per kind, K), and
-        the double layer's subtraction diagonal ``-sum_q T n w J`` (K, 3, 3) if requested.
+    def _assemble_ring(self, i: int, kinds: tuple[str, ...], out: dict[str, np.ndarray]) -> None:
+        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``.
 
-        The one dispatch point between the fused kernel (:mod:`.fused`, default) and the NumPy
-        reference (``backend="numpy"``)."""
+        The one dispatch point between the fused kernels of :mod:`.fused` (default) and the
+        NumPy reference (``backend="numpy"``); both share the BLAS-batched pull-back."""
+        q = self.quad
         if self.backend == "numba":
-            q = self.quad
             r, rt, rp = q.ring_radius(i, self.shape.coefficients)
-            return ring_components(
+            comps, subtraction = ring_components(
                 r, rt, rp, q.ring_frame(i), q.inv_sin_rot, q.weights_rot,
                 self.shape.grid.phi, self.shape.x[:, i], kinds,
             )  # fmt: skip
+            re, im = q.pull_back_unphased(i, comps)
+            cos, sin = q.phase_parts
+            for k, kind in enumerate(kinds):
+                scatter_rows(re, im, cos, sin, out[kind], i, len(_PAIRS) * k)
+        else:
+            comps, subtraction = self._ring_components_reference(i, kinds)
+            rows = q.pull_back(i, comps)  # (2, ntri, 6 per kind, K)
+            for k, kind in enumerate(kinds):
+                block = out[kind][:, :, :, :, i]  # (3 [density], 2, ntri, 3 [out], K)
+                for p, (a, b) in enumerate(_PAIRS):
+                    block[b, :, :, a] = rows[:, :, p + k * len(_PAIRS)]
+                    block[a, :, :, b] = rows[:, :, p + k * len(_PAIRS)]
+        if subtraction is not None:
+            # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
+            out["double_diagonal"][i] = subtraction - 4.0 * np.pi * np.eye(3)
+
+    def _ring_components_reference(
+        self, i: int, kinds: tuple[str, ...]
+    ) -> tuple[np.ndarray, np.ndarray | None]:
+        """NumPy reference of :func:`.fused.ring_components`: kernel components of ``kinds`` at
+        ring ``i``'s rotated nodes, (Q, 6 per kind, K), and the double layer's subtraction
+        diagonal ``-sum_q T n w J`` (K, 3, 3) if requested."""
         g = self.ring_geometry(i)
         inv_r = g.inv_r
         scal = {}
@@ -194,20 +213,6 @@ class LayerPotentials:
         if "double" in kinds:
             subtraction = -np.einsum("qk,iqk,jqk->kij", scal["double"], g.xh, g.xh)
         return comps, subtraction
-
-    def _assemble_ring(self, i: int, kinds: tuple[str, ...], out: dict[str, np.ndarray]) -> None:
-        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``."""
-        comps, subtraction = self._ring_components(i, kinds)
-        n = len(_PAIRS)
-        rows = self.quad.pull_back(i, comps)  # (2, ntri, 6 per kind, K)
-        for k, kind in enumerate(kinds):
-            block = out[kind][:, :, :, :, i]  # transposed: (3 [density], 2, ntri, 3 [out], K)
-            for p, (a, b) in enumerate(_PAIRS):
-                block[b, :, :, a] = rows[:, :, p + k * n]
-                block[a, :, :, b] = rows[:, :, p + k * n]
-        if subtraction is not None:
-            # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
-            out["double_diagonal"][i] = subtraction - 4.0 * np.pi * np.eye(3)
 
     def _matrix(self, kind: str) -> np.ndarray:
         """The assembled ``kind`` operator; on first need, every kernel of ``self.kernels`` not

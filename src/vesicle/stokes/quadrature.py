@@ -184,14 +184,10 @@ class SingularQuadrature:
         return vals.reshape(self.n_nodes, c.shape[0], -1)
 
     # --------------------------------------------------------- adjoint (rows)
-    def pull_back(self, i: int, v: np.ndarray, targets: slice = slice(None)) -> np.ndarray:
-        """Adjoint of :meth:`values`, one field per target: weights (Q, b, K) -> rows (2, T, b, K).
-
-        For weights ``v`` at the rotated nodes of target ``k`` it returns the real row ``q`` with
-        ``sum_nodes v * f(node) = sum_t q[0, t] Re c_t + q[1, t] Im c_t`` for every field ``f``
-        with coefficients ``c``, ``t`` running over the packed lower triangle ``l >= m``
-        (:attr:`packed`).
-        """
+    def pull_back_unphased(self, i: int, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`pull_back` before the adjoint z-phase: ``(Re, Im)``, each (T, b, K), of the
+        y-rotated coefficients; the phase ``e^{-i m phi_k}`` (:attr:`phase_parts`) turns them
+        into the rows."""
         _, b, k = v.shape
         n = self.lmax + 1
         vals = v.reshape(self.n_rot_phi, self.n_rot, b * k)
@@ -216,9 +212,19 @@ class SingularQuadrature:
                 start = l * (l + 1) // 2
                 packed[start : start + l + 1] = wig[l, : l + 1, : l + 1] @ c[l, : l + 1]
             parts.append(packed.reshape(-1, b, k))
-        re, im = parts
+        return parts[0], parts[1]
+
+    def pull_back(self, i: int, v: np.ndarray, targets: slice = slice(None)) -> np.ndarray:
+        """Adjoint of :meth:`values`, one field per target: weights (Q, b, K) -> rows (2, T, b, K).
+
+        For weights ``v`` at the rotated nodes of target ``k`` it returns the real row ``q`` with
+        ``sum_nodes v * f(node) = sum_t q[0, t] Re c_t + q[1, t] Im c_t`` for every field ``f``
+        with coefficients ``c``, ``t`` running over the packed lower triangle ``l >= m``
+        (:attr:`packed`).
+        """
+        re, im = self.pull_back_unphased(i, v)
         # adjoint of the z-phase e^{i m phi_k}: rotate (Re, Im) pairs by -m phi_k
-        cos, sin = self._phase_parts
+        cos, sin = self.phase_parts
         cos, sin = cos[:, None, targets], sin[:, None, targets]
         return np.stack([re * cos + im * sin, im * cos - re * sin])
 
@@ -228,7 +234,7 @@ class SingularQuadrature:
         return np.tril_indices(self.lmax + 1)
 
     @cached_property
-    def _phase_parts(self) -> tuple[np.ndarray, np.ndarray]:
+    def phase_parts(self) -> tuple[np.ndarray, np.ndarray]:
         """``cos(m phi_k)``, ``sin(m phi_k)`` on the packed triangle, each (T, K)."""
         angles = np.outer(self.packed[1], self.grid.phi)
         return np.cos(angles), np.sin(angles)
