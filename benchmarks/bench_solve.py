@@ -14,12 +14,16 @@ from vesicle.stokes import LayerPotentials, singular_quadrature
 
 def run() -> dict:
     shape = vs.Shape.spheroid(0.95, grid=32, degree=8).rotated(rotation_matrix("y", -0.5))
-    _ = singular_quadrature(32).wigner  # once per grid and process: not part of a solve
+    # once per grid and process, not part of a solve: the Wigner tables, and loading (or
+    # compiling) the fused kernels
+    _ = singular_quadrature(32).wigner
+    _ = LayerPotentials(vs.Shape.sphere(grid=32), kernels=("single",)).single_matrix
     results = {}
     for lam in (1.0, 8.0):
+        kernels = ("single",) if lam == 1.0 else ("single", "double")  # as the solver does
         for preset in ("time-dependent", "steady"):
             t0 = time.perf_counter()
-            lp = LayerPotentials(shape)
+            lp = LayerPotentials(shape, kernels=kernels)
             _ = lp.single_matrix
             t_build = time.perf_counter() - t0
             cold = solve_flow(shape, lam=lam, chi=1.0, tolerances=preset, operators=lp)
