@@ -8,7 +8,7 @@ import pytest
 from vesicle.dynamics import RunParameters
 from vesicle.simulation import simulate
 from vesicle.solver import SolverTolerances
-from vesicle.stability import FullBasis, critical_lambda, stability
+from vesicle.stability import FullBasis, _bracket, critical_lambda, stability
 from vesicle.steady import NewtonError, SymmetricBasis, _Problem, steady_tank_treading
 
 
@@ -122,3 +122,28 @@ def test_critical_lambda_low_resolution():
     c = critical_lambda(0.95, 1.0, degree=4, grid=16, lam0=8.0, xtol=1e-2)
     assert 7.0 < c.lambda_c < 10.0
     assert c.bifurcation in ("saddle-node", "hopf")
+
+
+@pytest.mark.parametrize(
+    "x0, step, most",
+    [(8.4, 0.01, 2), (3.0, 0.05, 7), (20.0, 0.05, 5), (8.46, 0.05, 2)],
+)
+def test_bracketing_of_the_growth_rate(x0, step, most):
+    """The bracket search on a smooth model of max omega_I(lambda) (root 8.46): near starts
+    bracket in two evaluations, far ones within a few capped secant moves, from either side."""
+    calls = []
+
+    def growth(lam):
+        calls.append(lam)
+        return 0.07 * (lam - 8.46) - 0.004 * (lam - 8.46) ** 2
+
+    lo, hi = _bracket(growth, x0, step, 1.5)
+    assert lo <= 8.46 <= hi and growth(lo) * growth(hi) <= 0
+    assert len(calls) - 2 <= most  # minus the two checks just above
+
+
+def test_bracketing_reports_no_sign_change():
+    with pytest.raises(RuntimeError, match="did not change sign"):
+        _bracket(lambda lam: -1.0, 8.0, 0.05, 1.5)
+    with pytest.raises(ValueError, match="step"):
+        _bracket(lambda lam: -1.0, 8.0, 0.0, 1.5)

@@ -101,6 +101,36 @@ def stability(
     return StabilityResult(omega, shapes, modes)
 
 
+def _bracket(f, x0: float, step: float, factor: float, moves: int = 12) -> tuple[float, float]:
+    """Two neighbouring points where ``f`` (increasing through its root, as the growth rate in
+    lambda) changes sign: ``x0``, ``x0`` moved by the relative ``step`` towards the root, then
+    secant steps in ``log x`` pushed 20 % past the predicted root and capped at ``factor``."""
+    if not step > 0 or not factor > 1:
+        raise ValueError(f"need step > 0 and factor > 1, got step={step}, factor={factor}")
+    points = [(x0, f(x0))]
+    x = x0 * (1.0 + step) if points[0][1] < 0 else x0 / (1.0 + step)
+    points.append((x, f(x)))
+    for _ in range(moves):
+        (x0, f0), (x1, f1) = points[-2:]
+        if f0 * f1 <= 0:
+            break
+        direction = 1.0 if f1 < 0 else -1.0  # below the root: go up
+        u0, u1 = np.log(x0), np.log(x1)
+        move = -1.2 * f1 * (u1 - u0) / (f1 - f0) if f1 != f0 else np.inf
+        if not move * direction > 0:  # the secant points away from the root
+            move = direction * np.log(factor)
+        move = direction * min(abs(move), np.log(factor))
+        x = float(np.exp(u1 + move))
+        points.append((x, f(x)))
+    (x0, f0), (x1, f1) = points[-2:]
+    if f0 * f1 > 0:
+        raise RuntimeError(
+            "could not bracket lambda_c: max omega_I did not change sign at lam = "
+            + ", ".join(f"{p[0]:.4g}" for p in points)
+        )
+    return min(x0, x1), max(x0, x1)
+
+
 @dataclass(frozen=True)
 class CriticalResult:
     """``lambda_c`` where the largest ``omega_I`` crosses zero, and the bifurcation type."""
@@ -158,31 +188,8 @@ def critical_lambda(
             progress({"lam": lam, "omega_R": w_r, "omega_I": w_i})
         return w_i
 
-    if not step > 0 or not factor > 1:
-        raise ValueError(f"need step > 0 and factor > 1, got step={step}, factor={factor}")
     lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(v))
-    points = [(lam, growth(lam))]
-    lam = lam * (1.0 + step) if points[0][1] < 0 else lam / (1.0 + step)
-    points.append((lam, growth(lam)))
-    for _ in range(12):
-        (l0, g0), (l1, g1) = points[-2:]
-        if g0 * g1 <= 0:
-            break
-        direction = 1.0 if g1 < 0 else -1.0  # growth rises with lam: stable means go up
-        x0, x1 = np.log(l0), np.log(l1)
-        move = -1.2 * g1 * (x1 - x0) / (g1 - g0) if g1 != g0 else np.inf
-        if not move * direction > 0:  # the secant points away from the crossing
-            move = direction * np.log(factor)
-        move = direction * min(abs(move), np.log(factor))
-        lam = float(np.exp(x1 + move))
-        points.append((lam, growth(lam)))
-    if points[-2][1] * points[-1][1] > 0:
-        raise RuntimeError(
-            "could not bracket lambda_c: max omega_I did not change sign at lam = "
-            + ", ".join(f"{p[0]:.4g}" for p in points)
-        )
-    (l0, _), (l1, _) = points[-2:]
-    lo, hi = min(l0, l1), max(l0, l1)
+    lo, hi = _bracket(growth, lam, step, factor)
     lam_c = brentq(growth, lo, hi, xtol=xtol)
     nearest = min(history, key=lambda h: abs(h[0] - lam_c))
     kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"
