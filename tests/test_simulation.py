@@ -236,3 +236,14 @@ def test_post_step_recentres_then_restores_area_and_volume():
     assert np.linalg.norm(shape.centroid) < p.recenter_threshold
     assert abs(shape.area / base.area - 1) <= p.drift_tol
     assert abs(shape.volume / base.volume - 1) <= p.drift_tol
+
+
+def test_landing_on_a_save_time_does_not_shrink_the_next_step():
+    """A step cut short to hit a save time keeps the proposal it was cut from: the steps right
+    after each save are not smaller than the cut step's proposal would make them."""
+    params = RunParameters(v=0.95, lam=1.0, chi=1.0, grid=12, degree=4, t_end=0.3,
+                           save_every=0.05, rtol=1e-4)  # fmt: skip
+    run = simulate(params)
+    assert np.allclose(np.diff(run.series["t"]), 0.05)
+    # 53 steps when the cut step's proposal was taken; 45 now, none rejected
+    assert run.checkpoint["steps"] <= 48 and run.checkpoint["rejected"] == 0

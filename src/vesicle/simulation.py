@@ -204,7 +204,9 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
             continue
         state.t += dt
         state.steps += 1
-        state.dt = result.dt_next
+        # A step shortened to land on a save time says little about the step size: keep the
+        # proposal it was cut from unless the controller now asks for a smaller one.
+        state.dt = max(result.dt_next, state.dt) if dt < state.dt else result.dt_next
         state.previous_error = integ.previous_error
         dt_taken = dt
         shape, changed = post_step(Shape(result.y_new, params.grid), state, params)
