@@ -185,7 +185,10 @@ def classify_regime(
             decay = float(np.exp(fit.omega_I * (tl[-1] - tl[0])))
         except ValueError:  # too few periods to fit: compare the first and last swings
             amp = [np.ptp(p[(tl >= a) & (tl <= b)]) for a, b in pairwise(tm)]
-            decay = amp[-1] / amp[0] if len(amp) >= 2 and amp[0] > 0 else 1.0
+            if len(amp) < 2 or amp[0] <= 0:
+                detail = "oscillation of psi, too few periods to tell damped from sustained"
+                return Regime("undetermined", period, tm, detail + "; run longer")
+            decay = amp[-1] / amp[0]
         if decay < 0.8:
             return Regime(
                 "TT", period, tm, f"damped oscillation of psi (x{decay:.2f} over the tail)"
@@ -221,7 +224,7 @@ def fit_damped_oscillation(
     §14): ``(omega_R, omega_I)`` of the fit against the most unstable eigenvalue.  The start
     values come from the series itself (the mean of its last part, the dominant frequency of its
     periodogram, the decay of its envelope); ``t_min`` (default: a fifth into the series) skips
-    the start-up transient.  Raises ``ValueError`` when the window holds fewer than two periods
+    the start-up transient.  Raises ``ValueError`` when the window holds fewer than 1.5 periods
     or the fit does not converge.
     """
     from scipy.optimize import OptimizeWarning, curve_fit
@@ -241,8 +244,10 @@ def fit_damped_oscillation(
     freqs = np.fft.rfftfreq(pu.size, tu[1] - tu[0]) * 2.0 * np.pi
     k = int(np.argmax(spectrum[1:])) + 1
     omega_r = float(freqs[k])
-    if omega_r * (tw[-1] - tw[0]) < 4.0 * np.pi:
-        raise ValueError("the fitted window holds fewer than two periods; run longer")
+    # the periodogram's bins are 2 pi / window wide, so this start value can be a bin low:
+    # ask for 1.5 periods by it (two or more in fact, for the runs this is meant for)
+    if omega_r * (tw[-1] - tw[0]) < 3.0 * np.pi:
+        raise ValueError("the fitted window holds fewer than 1.5 periods; run longer")
     half = tw < tw[0] + 0.5 * (tw[-1] - tw[0])
     a0, a1 = np.ptp(pw[half]), np.ptp(pw[~half])
     span = 0.5 * (tw[-1] - tw[0])
