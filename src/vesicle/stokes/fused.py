@@ -19,7 +19,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-__all__ = ["ring_components", "scatter_rows"]
+__all__ = ["PAIRS", "ring_components", "scatter_rows"]
+
+#: The six stored components ``(a, b)``, ``a <= b``, of a symmetric 3x3 kernel, in their order.
+PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
 
 @njit(cache=True, nogil=True)
@@ -139,8 +142,8 @@ def ring_components(
     return comps, diag
 
 
-_PAIR_A = np.array([0, 0, 0, 1, 1, 2])
-_PAIR_B = np.array([0, 1, 2, 1, 2, 2])
+_PAIR_A = np.array([a for a, _ in PAIRS])
+_PAIR_B = np.array([b for _, b in PAIRS])
 
 
 @njit(cache=True, nogil=True)

@@ -31,6 +31,7 @@ from threadpoolctl import threadpool_limits
 
 from ..sphere.transforms import transform
 from ..surface import Shape
+from .fused import PAIRS as _PAIRS
 from .fused import ring_components, scatter_rows
 from .quadrature import RingGeometry, SingularQuadrature, singular_quadrature
 
@@ -45,9 +46,6 @@ BACKENDS = ("numba", "numpy")
 
 #: The two layer potentials, in assembly order.
 KERNELS = ("single", "double")
-
-#: Symmetric 3x3 kernel components stored once: (i, j) pairs with i <= j.
-_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
 
 def _default_workers() -> int:

@@ -204,7 +204,7 @@ class SingularQuadrature:
         parts = []
         for part, wig in ((F.real, plusT[i]), (F.imag, minusT[i])):
             part = np.ascontiguousarray(part)
-            c = np.zeros((n, n, b * k))  # (l, m', B)
+            c = np.empty((n, n, b * k))  # (l, m', B); only m' <= l is set and read
             for m in range(n):
                 c[m:, m] = adj[m, m:] @ part[m]
             packed = np.empty((n * (n + 1) // 2, b * k))
