@@ -71,8 +71,11 @@ def test_tilt_parameter_marks_out_of_plane():
     run = synthetic_run(n=2)
     run.parameters["tilt"] = 0.1
     assert is_out_of_plane(run)
-    run.parameters["tilt"] = [0.0, 0.0]
+    run.parameters["tilt"] = 0.0
     assert not is_out_of_plane(run)
+    run.parameters["tilt"] = "thirty"  # a corrupt file: an error, not a silent in-plane run
+    with pytest.raises(ValueError, match="tilt"):
+        is_out_of_plane(run)
 
 
 def test_all_nan_stress_still_plots(tmp_path):

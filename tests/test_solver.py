@@ -7,15 +7,9 @@ from hypothesis import strategies as st
 
 import vesicle as vs
 from vesicle.flows import LinearFlow
-from vesicle.solver import (
-    FlowParameters,
-    SolverError,
-    SolverTolerances,
-    VelocityTensionSolver,
-    schur_symbol,
-    solve_flow,
-    sphere_relaxation_rates,
-)
+from vesicle.parameters import Physics
+from vesicle.solver import SolverError, SolverTolerances, VelocityTensionSolver, solve_flow
+from vesicle.stokes.spectra import schur_symbol, sphere_relaxation_rates
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.sphere.transforms import transform
 from vesicle.stokes import LayerPotentials
@@ -43,7 +37,7 @@ def test_sphere_symbol_matches_operator(sphere):
     """The Schur preconditioner's symbol is the exact eigenvalue on the unit sphere."""
     s, lp = sphere
     lam = 3.0
-    solver = VelocityTensionSolver(s, FlowParameters(lam, 0.0), SolverTolerances(1e-10, 1e-12), lp)
+    solver = VelocityTensionSolver(s, Physics(lam=lam, chi=0.0), SolverTolerances(1e-10, 1e-12), lp)
     symbol = schur_symbol(s.grid.max_degree, lam)
     T = transform(16)
     for l, m in ((1, 0), (2, 1), (5, 3), (6, 0)):  # degrees the 16-ring grid resolves
@@ -82,9 +76,9 @@ def test_reversing_shear_reverses_flow_driven_velocity(tilted):
     s, lp = tilted
     plus = solve_flow(s, lam=4.0, chi=1.0, tolerances="steady", operators=lp, split=True)
     minus = solve_flow(s, lam=4.0, chi=-1.0, tolerances="steady", operators=lp, split=True)
-    solver = VelocityTensionSolver(s, FlowParameters(4.0, 1.0), SolverTolerances.steady(), lp)
+    solver = VelocityTensionSolver(s, Physics(lam=4.0, chi=1.0), SolverTolerances.steady(), lp)
     u_flow = solver.solve(bending=False, flow=True).u
-    solver_m = VelocityTensionSolver(s, FlowParameters(4.0, -1.0), SolverTolerances.steady(), lp)
+    solver_m = VelocityTensionSolver(s, Physics(lam=4.0, chi=-1.0), SolverTolerances.steady(), lp)
     np.testing.assert_allclose(solver_m.solve(bending=False, flow=True).u, -u_flow, atol=1e-6)
     # the flow part of S is independent of chi; the bending part flips with it
     assert plus.split["flow"].S_xz == pytest.approx(minus.split["flow"].S_xz, rel=1e-6)
@@ -158,7 +152,7 @@ def test_non_convergence_is_reported():
 @given(st.one_of(st.floats(max_value=0.0), st.just(float("nan")), st.just(float("inf"))))
 def test_bad_viscosity_ratio_is_refused(lam):
     with pytest.raises(ValueError, match="lam"):
-        FlowParameters(lam, 1.0)
+        Physics(lam=lam, chi=1.0)
 
 
 @settings(max_examples=25, deadline=None)
@@ -177,9 +171,9 @@ def test_bad_flow_tensors_are_refused_or_valid(values):
 
 def test_bad_inputs():
     with pytest.raises(ValueError, match="chi"):
-        FlowParameters(1.0, float("nan"))
+        Physics(lam=1.0, chi=float("nan"))
     with pytest.raises(ValueError, match="unknown flow"):
-        FlowParameters(1.0, 1.0, "vortex")
+        Physics(lam=1.0, chi=1.0, flow="vortex")
     with pytest.raises(ValueError, match="tolerance"):
         SolverTolerances(schur=0.0)
 

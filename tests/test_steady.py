@@ -9,7 +9,7 @@ from vesicle.dynamics import RunParameters
 from vesicle.simulation import simulate
 from vesicle.solver import SolverTolerances
 from vesicle.stability import FullBasis, _bracket, critical_lambda, stability
-from vesicle.steady import NewtonError, SymmetricBasis, _Problem, steady_tank_treading
+from vesicle.steady import NewtonError, SymmetricBasis, steady_tank_treading
 
 
 @pytest.fixture(scope="module")
@@ -71,13 +71,14 @@ def test_newton_from_too_far_reports_its_history(steady):
 
 
 def test_parallel_jacobian_is_identical_to_serial(steady):
-    P = _Problem(0.95, 8.0, 10.0, 4, 16, SolverTolerances(1e-8, 1e-9), None)
+    P = steady.problem
+    assert P.tolerances == SolverTolerances(1e-8, 1e-9)
     base, flow = P.adot(steady.a)
-    serial = P.jacobian(steady.a, base, flow.sigma)
+    serial, n = P.jacobian(steady.a, base, flow.sigma)
     with ProcessPoolExecutor(2) as pool:
-        P.executor = pool
-        parallel = P.jacobian(steady.a, base, flow.sigma)
+        parallel, _ = P.jacobian(steady.a, base, flow.sigma, executor=pool)
     np.testing.assert_array_equal(parallel, serial)
+    assert n == steady.basis.size  # forward differences: one solve per column
 
 
 def test_steady_shape_stays_steady_in_time(steady):
@@ -108,7 +109,7 @@ def test_symmetric_basis_round_trip():
 
 
 def test_bad_input():
-    with pytest.raises(ValueError, match="shear rate"):
+    with pytest.raises(ValueError, match="non-zero chi"):
         steady_tank_treading(0.95, 1.0, 0.0, degree=4, grid=12)
     with pytest.raises(ValueError, match="lam"):
         steady_tank_treading(0.95, -1.0, 1.0, degree=4, grid=12)

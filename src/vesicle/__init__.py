@@ -2,11 +2,16 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
+from .caches import cache_info, clear_caches
 from .flows import LinearFlow
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
+from .parameters import Discretisation, Physics, SolverTolerances
+from .problem import SteadyProblem
 from .rheology import ParticleStress
-from .solver import FlowParameters, FlowResult, SolverError, SolverTolerances, solve_flow
+from .solver import FlowResult, SolverError, solve_flow
 from .sphere.grid import SphereGrid
+from .stability import CriticalResult, StabilityResult, critical_lambda, stability
+from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .stokes import LayerPotentials, double_layer, single_layer
 from .surface import Shape, ShapeError
 
@@ -16,22 +21,33 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
-    "FlowParameters",
+    "CriticalResult",
+    "Discretisation",
     "FlowResult",
     "LayerPotentials",
     "LinearFlow",
+    "NewtonError",
     "ParticleStress",
+    "Physics",
     "Shape",
     "ShapeError",
     "SolverError",
     "SolverTolerances",
     "SphereGrid",
+    "StabilityResult",
+    "SteadyProblem",
+    "SteadyResult",
     "__version__",
     "bending_energy",
     "bending_force",
+    "cache_info",
+    "clear_caches",
+    "critical_lambda",
     "double_layer",
     "membrane_force",
     "single_layer",
     "solve_flow",
+    "stability",
+    "steady_tank_treading",
     "tension_force",
 ]

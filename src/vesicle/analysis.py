@@ -8,6 +8,7 @@ two principal axes that lie closest to the x-z plane, in (-pi/2, pi/2]; ``D = (L
 
 from __future__ import annotations
 
+import logging
 import warnings
 from dataclasses import dataclass
 from itertools import pairwise
@@ -27,7 +28,10 @@ __all__ = [
     "local_minima",
     "ray_radius",
     "recentered",
+    "summarize",
 ]
+
+log = logging.getLogger(__name__)
 
 
 def _unit_angles(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -280,3 +284,80 @@ def fit_damped_oscillation(
     return DampedOscillation(
         float(c), amplitude, float(wr), float(wi), float(np.mod(ph, 2 * np.pi)), rms, float(t_min)
     )
+
+
+def summarize(run) -> dict:
+    """Regime, period, final shape, stress averages and drift of a run (JSON-able).
+
+    ``run`` is a :class:`vesicle.io.RunData` (anything with ``series``, ``checkpoint``,
+    ``parameters`` and ``n_saved``).
+
+    ``mean`` averages ``S_xz, N1, N2`` over whole periods (between the first and last psi
+    minimum) when the run is periodic, else over the last quarter of the saved steps.
+    ``drift`` is the relative change of area and volume from the first to the last saved step;
+    ``corrections`` the total relative amounts the drift control removed.  ``oscillation``: when
+    psi oscillates (a damped TT approach or TR), the fit of
+    ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the second psi minimum on
+    (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.
+    """
+    s = run.series
+    t = s["t"]
+    regime = classify_regime(t, s["psi"], s["axes"])
+    if regime.minima.size >= 2:
+        window = (t >= regime.minima[0]) & (t <= regime.minima[-1])
+    else:
+        window = t >= t[0] + 0.75 * (t[-1] - t[0])
+
+    def mean(name):
+        y, x = s[name][window], t[window]
+        if np.all(np.isnan(y)):
+            return None
+        return float(np.trapezoid(y, x) / (x[-1] - x[0])) if x.size > 1 else float(y[-1])
+
+    ck = run.checkpoint or {}
+    corrections = ck.get("corrections", {})
+    oscillation = None
+    if regime.name in ("TT", "TR") and regime.minima.size >= 2:
+        minima = local_minima(s["psi"])
+        try:  # from the second minimum of the whole series: past the start-up transient
+            t_min = float(t[minima[min(1, minima.size - 1)]])
+            fit = fit_damped_oscillation(t, s["psi"], t_min=t_min)
+            oscillation = {
+                "omega_R": fit.omega_R,
+                "omega_I": fit.omega_I,
+                "psi_inf": fit.psi_inf,
+                "amplitude": fit.amplitude,
+                "rms_residual": fit.rms_residual,
+                "t_min": fit.t_min,
+            }
+        except ValueError as err:
+            log.info("no damped-oscillation fit: %s", err)
+    return {
+        "regime": regime.name,
+        "regime_detail": regime.detail,
+        "period": regime.period,
+        "t_final": float(t[-1]),
+        "saved_steps": run.n_saved,
+        "steps": ck.get("steps"),
+        "rejected_steps": ck.get("rejected"),
+        "solves": ck.get("solves"),
+        "final": {
+            "psi": float(s["psi"][-1]),
+            "D": float(s["D"][-1]),
+            "axes": s["L"][-1].tolist(),
+            "bending_energy": float(s["bending_energy"][-1]),
+            "reduced_volume": float(s["reduced_volume"][-1]),
+        },
+        "mean": {k: mean(k) for k in ("S_xz", "N1", "N2")},
+        "oscillation": oscillation,
+        "drift": {
+            "area": float(s["area"][-1] / s["area"][0] - 1.0),
+            "volume": float(s["volume"][-1] / s["volume"][0] - 1.0),
+        },
+        "corrections": {
+            "area": corrections.get("area"),
+            "volume": corrections.get("volume"),
+            "recentered": corrections.get("recentered"),
+        },
+        "parameters": run.parameters,
+    }

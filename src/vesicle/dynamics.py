@@ -8,10 +8,11 @@ Integrators, all with an embedded error estimate on the coefficients and PI step
 
 - ``"ros2"`` (default): the linearly implicit two-stage Rosenbrock-W method ROS2 (Verwer et al.
   1999) with an approximate Jacobian ``-Gamma_l``, the relaxation rates of the unit sphere
-  (:func:`vesicle.solver.sphere_relaxation_rates` at the current mean tension), diagonal in the
-  coefficients.  A W-method keeps its order 2 for any approximate Jacobian; the diagonal one takes
-  the bending stiffness (``Gamma_l ~ l^3``) out of the step limit at no cost: two velocity solves
-  per step, like an explicit method.  Embedded: the linearly implicit Euler step.
+  (:func:`vesicle.stokes.spectra.sphere_relaxation_rates` at the current mean tension),
+  diagonal in the coefficients.  A W-method keeps its order 2 for any approximate Jacobian; the
+  diagonal one takes the bending stiffness (``Gamma_l ~ l^3``) out of the step limit at no
+  cost: two velocity solves per step, like an explicit method.  Embedded: the linearly
+  implicit Euler step.
 - ``"bs3"``: explicit Bogacki–Shampine 3(2), FSAL (three solves per step);
 - ``"heun"``: explicit Heun–Euler 2(1) (two solves per step).
 
@@ -27,18 +28,21 @@ that has moved by more than ``recenter_threshold``.
 from __future__ import annotations
 
 import logging
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .analysis import diagnose, recentered
-from .flows import FLOWS
-from .solver import FlowResult, SolverTolerances, solve_flow, sphere_relaxation_rates
+from .kinematics import area_volume_variations, rate_of_change
+from .parameters import Discretisation, Physics, SolverTolerances
+from .solver import FlowResult, solve_flow
 from .sphere.transforms import resize, transform
+from .stokes.spectra import sphere_relaxation_rates
 from .surface import Shape, ShapeError
 
 __all__ = [
     "INTEGRATORS",
+    "RUN_DEFAULTS",
     "TABLEAUS",
     "Evaluation",
     "Integrator",
@@ -73,87 +77,171 @@ ROS2_GAMMA = 1.0 + 1.0 / np.sqrt(2.0)
 INTEGRATORS = ("ros2", *TABLEAUS)
 
 
-@dataclass(frozen=True)
+#: The run's own settings (everything but physics, discretisation and solver tolerances), with
+#: their defaults.
+RUN_DEFAULTS = {
+    "t_end": 1.0,
+    "save_every": 0.05,
+    "init": "spheroid",
+    "tilt": 0.0,  # degrees, about the shorter in-plane principal axis (SPEC §13)
+    "perturb": 0.0,
+    "seed": 0,
+    "integrator": "ros2",
+    "rtol": 1e-4,  # local error per step, relative to the mean radius
+    "dt0": 1e-3,
+    "dt_min": 1e-7,
+    "dt_max": 0.05,
+    "drift_control": True,
+    "drift_tol": 1e-5,  # relative area/volume drift that triggers a correction
+    "recenter_threshold": 1e-4,
+    "steady_tol": 0.0,  # stop when max |dr/dt| falls below this (0: never)
+    "periods": 0,  # stop after this many psi periods (0: never)
+    "split_stress": False,  # also store S^B and S^V at saved steps (two more solves each)
+    "checkpoint_every": 60.0,  # wall seconds between checkpoints
+}
+
+_PHYSICS_KEYS = ("v", "lam", "chi", "flow")
+_DISCRETISATION_KEYS = ("grid", "degree", "n_rot", "backend", "method", "workers")
+
+
+@dataclass(frozen=True, init=False)
 class RunParameters:
-    """Everything that defines a time-dependent run (stored in its output file)."""
+    """Everything that defines a time-dependent run (stored in its output file).
 
-    v: float = 0.95
-    lam: float = 1.0
-    chi: float = 1.0
-    flow: str = "shear"
-    grid: int = 32
-    degree: int = 8
-    t_end: float = 20.0
-    save_every: float = 0.05
-    init: str = "spheroid"
-    tilt: float = 0.0  # degrees, about the shorter in-plane principal axis (SPEC §13)
-    perturb: float = 0.0
-    seed: int = 0
-    integrator: str = "ros2"
-    rtol: float = 1e-4  # local error per step, relative to the mean radius
-    dt0: float = 1e-3
-    dt_min: float = 1e-7
-    dt_max: float = 0.05
-    tolerances: str = "time-dependent"
-    drift_control: bool = True
-    drift_tol: float = 1e-5  # relative area/volume drift that triggers a correction
-    recenter_threshold: float = 1e-4
-    steady_tol: float = 0.0  # stop when max |dr/dt| falls below this (0: never)
-    periods: int = 0  # stop after this many psi periods (0: never)
-    split_stress: bool = False  # also store S^B and S^V at saved steps (two more solves each)
-    checkpoint_every: float = 60.0  # wall seconds between checkpoints
+    Composed of a :class:`~vesicle.parameters.Physics`, a
+    :class:`~vesicle.parameters.Discretisation`, the :class:`SolverTolerances` of each solve
+    (default: SPEC §6's time-dependent preset) and the run's own settings
+    (:data:`RUN_DEFAULTS`).  For convenience the physics and discretisation may also be given
+    as flat keywords (``RunParameters(v=0.95, lam=8, chi=10, t_end=5)``), and ``tolerances`` as
+    a preset name; ``v``, ``lam``, ``chi``, ``flow``, ``grid`` and ``degree`` read through.
+    """
 
-    def __post_init__(self) -> None:
-        for name in (
-            "v",
-            "lam",
-            "chi",
-            "t_end",
-            "save_every",
-            "rtol",
-            "dt0",
-            "dt_min",
-            "dt_max",
-            "perturb",
-            "tilt",
-            "steady_tol",
-            "recenter_threshold",
-            "checkpoint_every",
-            "drift_tol",
-        ):
+    physics: Physics
+    discretisation: Discretisation
+    solver: SolverTolerances
+    t_end: float
+    save_every: float
+    init: str
+    tilt: float
+    perturb: float
+    seed: int
+    integrator: str
+    rtol: float
+    dt0: float
+    dt_min: float
+    dt_max: float
+    drift_control: bool
+    drift_tol: float
+    recenter_threshold: float
+    steady_tol: float
+    periods: int
+    split_stress: bool
+    checkpoint_every: float
+
+    def __init__(
+        self,
+        physics: Physics | None = None,
+        discretisation: Discretisation | None = None,
+        solver: SolverTolerances | str | dict | None = None,
+        **options,
+    ):
+        flat_p = {k: options.pop(k) for k in _PHYSICS_KEYS if k in options}
+        flat_d = {k: options.pop(k) for k in _DISCRETISATION_KEYS if k in options}
+        if "tolerances" in options:
+            if solver is not None:
+                raise ValueError("give solver or tolerances, not both")
+            solver = options.pop("tolerances")
+        unknown = set(options) - set(RUN_DEFAULTS)
+        if unknown:
+            raise ValueError(f"unknown run parameter(s) {', '.join(sorted(unknown))}")
+        physics = _compose(Physics, physics, flat_p, "physics")
+        discretisation = _compose(Discretisation, discretisation, flat_d, "discretisation")
+        solver = SolverTolerances.parse(solver if solver is not None else "time-dependent")
+        object.__setattr__(self, "physics", physics)
+        object.__setattr__(self, "discretisation", discretisation)
+        object.__setattr__(self, "solver", solver)
+        for name, default in RUN_DEFAULTS.items():
+            object.__setattr__(self, name, options.get(name, default))
+        self._validate()
+
+    def _validate(self) -> None:
+        for name, default in RUN_DEFAULTS.items():
             value = getattr(self, name)
-            if not isinstance(value, int | float) or not np.isfinite(value):
+            if isinstance(default, bool):
+                if not isinstance(value, bool | np.bool_):
+                    raise ValueError(f"{name} must be true or false, got {value!r}")
+            elif isinstance(default, int | float) and (
+                isinstance(value, bool)
+                or not isinstance(value, int | float | np.number)
+                or not np.isfinite(value)
+            ):
                 raise ValueError(f"{name} must be a finite number, got {value!r}")
-        if not 0.0 < self.v <= 1.0:
-            raise ValueError(f"reduced volume v must lie in (0, 1], got {self.v}")
-        if self.lam <= 0.0:
-            raise ValueError(f"viscosity ratio lam must be positive, got {self.lam}")
-        if self.flow not in FLOWS:
-            raise ValueError(f"unknown flow {self.flow!r}; choose one of {sorted(FLOWS)}")
-        if self.degree < 2 or self.grid <= self.degree:
-            raise ValueError(
-                f"degree N = {self.degree} needs N >= 2 and a grid of n_theta > N "
-                f"(got n_theta = {self.grid}); SPEC's default is N = 8 on 32 x 64"
-            )
         for name in ("t_end", "save_every", "rtol", "dt0", "dt_min", "dt_max"):
             if getattr(self, name) <= 0.0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
+        for name in ("perturb", "steady_tol", "drift_tol", "recenter_threshold"):
+            if getattr(self, name) < 0.0:
+                raise ValueError(f"{name} must not be negative, got {getattr(self, name)}")
+        if self.periods < 0:
+            raise ValueError(f"periods must not be negative, got {self.periods}")
+        if self.checkpoint_every <= 0.0:
+            raise ValueError(f"checkpoint_every must be positive, got {self.checkpoint_every}")
         if self.dt_min > self.dt_max:
             raise ValueError("dt_min must not exceed dt_max")
-        if self.grid < 2 * self.degree + 4:
-            log.warning(
-                "grid n_theta = %d is coarse for degree N = %d: the bending force (fourth "
-                "derivatives, nonlinear) aliases; SPEC uses N = 8 on 32 x 64",
-                self.grid,
-                self.degree,
-            )
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
-        if self.tolerances not in ("time-dependent", "steady"):
-            raise ValueError("tolerances must be 'time-dependent' or 'steady'")
+
+    # the physics and discretisation, read through
+    v = property(lambda self: self.physics.v)
+    lam = property(lambda self: self.physics.lam)
+    chi = property(lambda self: self.physics.chi)
+    flow = property(lambda self: self.physics.flow)
+    grid = property(lambda self: self.discretisation.grid)
+    degree = property(lambda self: self.discretisation.degree)
+
+    def replace(self, **changes) -> RunParameters:
+        """A new object; ``changes`` may name run settings or flat physics/discretisation keys."""
+        p = {k: changes.pop(k) for k in _PHYSICS_KEYS if k in changes}
+        d = {k: changes.pop(k) for k in _DISCRETISATION_KEYS if k in changes}
+        fields = {
+            "physics": self.physics.replace(**p),
+            "discretisation": self.discretisation.replace(**d),
+            "solver": self.solver,
+            **{name: getattr(self, name) for name in RUN_DEFAULTS},
+        }
+        return RunParameters(**{**fields, **changes})
 
     def to_dict(self) -> dict:
-        return asdict(self)
+        return {
+            "physics": self.physics.to_dict(),
+            "discretisation": self.discretisation.to_dict(),
+            "solver": self.solver.to_dict(),
+            **{name: getattr(self, name) for name in RUN_DEFAULTS},
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict) -> RunParameters:
+        """From :meth:`to_dict`'s output, or from the flat parameters of files written before
+        the parameter objects (``v, lam, chi, flow, grid, degree, tolerances, ...``)."""
+        data = dict(data)
+        data.pop("flow_gradient", None)  # the flat format's record of the flow
+        if "physics" in data:
+            data["physics"] = Physics.from_dict(data["physics"])
+        if "discretisation" in data:
+            data["discretisation"] = Discretisation.from_dict(data["discretisation"])
+        if isinstance(data.get("solver"), dict):
+            data["solver"] = SolverTolerances.from_dict(data["solver"])
+        return cls(**data)
+
+
+def _compose(cls, obj, flat: dict, name: str):
+    if obj is None:
+        return cls(**flat)
+    if not isinstance(obj, cls):
+        raise TypeError(f"{name} must be a {cls.__name__}, got {type(obj).__name__}")
+    if flat:
+        raise ValueError(f"give {name} as a {cls.__name__} or as keywords, not both")
+    return obj
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,17 +251,6 @@ class Evaluation:
     shape: Shape
     rate: np.ndarray  # (N+1, N+1) complex
     flow: FlowResult
-
-
-def rate_of_change(shape: Shape, u: np.ndarray, degree: int) -> np.ndarray:
-    """Coefficients of ``dr/dt`` (2.18)-(2.19) at fixed grid directions, filtered to ``degree``."""
-    e_r, e_t, e_p = shape.grid.unit_vectors
-    d = shape.radius_derivatives
-    st = np.sin(shape.grid.theta)[:, None]
-    dot = lambda a, b: np.einsum("i...,i...->...", a, b)  # noqa: E731
-    r = d.f
-    drdt = dot(e_r, u) - d.t * dot(e_t, u) / r - d.p * dot(e_p, u) / (r * st)
-    return transform(shape.grid.n_theta, degree).analysis(drdt)
 
 
 @dataclass
@@ -247,11 +324,7 @@ class Integrator:
             self.c, self.A, self.b = c, A, np.array(b)
             self.e = np.array(b) - np.array(b_hat)
             self.order, self.fsal = order, fsal
-        self.tolerances = (
-            SolverTolerances.steady()
-            if params.tolerances == "steady"
-            else SolverTolerances.time_dependent()
-        )
+        self.tolerances = params.solver
         self.previous_error = 1.0  # of the last accepted step, for the PI controller
         self.solves = 0  # velocity-tension solves made by :meth:`evaluate`
 
@@ -274,10 +347,9 @@ class Integrator:
         self.solves += 1
         flow = solve_flow(
             shape,
-            lam=self.params.lam,
-            chi=self.params.chi,
-            flow=self.params.flow,
+            self.params.physics,
             tolerances=self.tolerances,
+            discretisation=self.params.discretisation,
             sigma0=sigma0,
         )
         return Evaluation(shape, rate_of_change(shape, flow.u, self.params.degree), flow)
@@ -372,17 +444,12 @@ def restore_area_volume(
         err = np.array([area - shape.area, volume - shape.volume])
         if np.all(np.abs(err) <= 1e-14 * np.array([area, volume])):
             break
-        ner = np.einsum("i...,i...->...", shape.normal, shape.grid.unit_vectors[0])
         J = shape.area_element
-        grads = [T.analysis(-2.0 * shape.mean_curvature * ner * J), T.analysis(ner * J)]
+        densities = [var * J for var in area_volume_variations(shape)]
+        grads = [T.analysis(g) for g in densities]
         fields = [T.synthesis(g) for g in grads]
         w = shape.grid.weights
-        M = np.array(
-            [
-                [np.sum(w * gi * fj) for fj in fields]
-                for gi in (-2.0 * shape.mean_curvature * ner * J, ner * J)
-            ]
-        )
+        M = np.array([[np.sum(w * gi * fj) for fj in fields] for gi in densities])
         alpha, beta = np.linalg.solve(M, err)
         c = resize(shape.coefficients, degree) + alpha * grads[0] + beta * grads[1]
         shape = Shape(c, shape.grid)

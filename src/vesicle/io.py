@@ -5,8 +5,11 @@ Layout of a run file (all written by :func:`write_run`):
 ``/`` attributes
     ``format = "vesicle-run"``, ``format_version``, ``vesicle_version``, ``created``, ``updated``.
 ``/parameters`` attributes
-    every run parameter (``v, lam, chi, flow, flow_gradient, grid, degree, t_end, ...``); values
-    that are dictionaries are stored as JSON strings.
+    the run parameters (:meth:`vesicle.dynamics.RunParameters.to_dict`): ``physics``,
+    ``discretisation`` and ``solver`` (the parameter objects' dictionaries, as JSON strings) and
+    the run's own settings (``t_end, save_every, integrator, ...``).  Files of format version 1
+    hold the flat ``v, lam, chi, flow, flow_gradient, grid, degree, tolerances, ...``; both read
+    back to equal :class:`~vesicle.dynamics.RunParameters`.
 ``/series/<name>``
     one entry per saved step: ``t, psi, D, L`` (n, 3: principal-axis lengths, descending),
     ``axes`` (n, 3, 3: row k is the unit vector of axis k), ``area, volume, reduced_volume,
@@ -38,7 +41,7 @@ from .surface import Shape
 __all__ = ["FORMAT", "FORMAT_VERSION", "RunData", "read_run", "write_run"]
 
 FORMAT = "vesicle-run"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 
 #: Series stored per saved step, with their trailing shapes.
 SERIES = {
@@ -84,13 +87,23 @@ class RunData:
     def n_saved(self) -> int:
         return int(self.coefficients.shape[0])
 
+    def parameter(self, name: str, default=None):
+        """A stored parameter by its flat name (``v``, ``lam``, ``grid``, ``t_end``, ...): from the
+        ``physics`` / ``discretisation`` / ``solver`` groups, or from the flat layout of files
+        written before the parameter objects."""
+        p = self.parameters
+        for group in ("physics", "discretisation", "solver"):
+            if isinstance(p.get(group), dict) and name in p[group]:
+                return p[group][name]
+        return p.get(name, default)
+
     @property
     def grid(self) -> int:
-        return int(self.parameters["grid"])
+        return int(self.parameter("grid"))
 
     @property
     def degree(self) -> int:
-        return int(self.parameters["degree"])
+        return int(self.parameter("degree"))
 
     def __getattr__(self, name: str) -> np.ndarray:
         series = self.__dict__.get("series", {})

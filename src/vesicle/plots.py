@@ -36,9 +36,9 @@ def _fmt(value: object) -> str:
 
 
 def _title(run: RunData, what: str) -> str:
-    p = run.parameters
     params = ", ".join(
-        f"{name} = {_fmt(p.get(key))}" for name, key in (("v", "v"), ("λ", "lam"), ("χ", "chi"))
+        f"{name} = {_fmt(run.parameter(key))}"
+        for name, key in (("v", "v"), ("λ", "lam"), ("χ", "chi"))
     )
     return f"{what}  ({params})"
 
@@ -74,11 +74,11 @@ def is_out_of_plane(run: RunData) -> bool:
     bool
         True if any ``|axes[:, 0, 1]| > 0.05`` or a non-zero ``tilt`` parameter is set.
     """
-    tilt = run.parameters.get("tilt", 0)
+    tilt = run.parameter("tilt", 0.0)
     try:
-        tilted = bool(np.any(np.asarray(tilt if tilt is not None else 0, dtype=float) != 0))
+        tilted = float(0.0 if tilt is None else tilt) != 0.0
     except (TypeError, ValueError):
-        tilted = False
+        raise ValueError(f"the run's tilt parameter is not a number: {tilt!r}") from None
     axes = run.series.get("axes")
     if axes is None or np.size(axes) == 0:
         return tilted

@@ -17,9 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import classify_regime, diagnose, fit_damped_oscillation, local_minima
+from .analysis import classify_regime, diagnose, summarize
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
-from .flows import FLOWS
 from .io import SERIES, RunData, write_run
 from .solver import solve_flow
 from .surface import Shape
@@ -36,14 +35,12 @@ class SimulationError(RuntimeError):
 
 
 def load_parameters(run: RunData) -> RunParameters:
-    """The :class:`RunParameters` stored in a run file."""
-    names = RunParameters.__dataclass_fields__
-    return RunParameters(**{k: v for k, v in run.parameters.items() if k in names})
+    """The :class:`RunParameters` stored in a run file (also the flat format of older files)."""
+    return RunParameters.from_dict(run.parameters)
 
 
 def _new_run(params: RunParameters, shape: Shape) -> RunData:
     parameters = params.to_dict()
-    parameters["flow_gradient"] = FLOWS[params.flow]().matrix.tolist()
     series = {k: np.zeros((0, *shp)) for k, shp in SERIES.items()}
     series["spectrum"] = np.zeros((0, params.degree + 1))
     coefficients = np.zeros((0, params.degree + 1, params.degree + 1), complex)
@@ -59,10 +56,9 @@ def _split_stress(ev: Evaluation, params: RunParameters):
         return ev.flow.stress, nan, nan
     r = solve_flow(
         ev.shape,
-        lam=params.lam,
-        chi=params.chi,
-        flow=params.flow,
+        params.physics,
         tolerances="steady",
+        discretisation=params.discretisation,
         sigma0=ev.flow.sigma,
         split=True,
     )
@@ -242,77 +238,3 @@ def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> bo
             log.info("%d periods of psi completed", params.periods)
             return True
     return False
-
-
-def summarize(run: RunData) -> dict:
-    """Regime, period, final shape, stress averages and drift of a run (JSON-able).
-
-    ``mean`` averages ``S_xz, N1, N2`` over whole periods (between the first and last psi
-    minimum) when the run is periodic, else over the last quarter of the saved steps.
-    ``drift`` is the relative change of area and volume from the first to the last saved step;
-    ``corrections`` the total relative amounts the drift control removed.  ``oscillation``: when
-    psi oscillates (a damped TT approach or TR), the fit of
-    ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the second psi minimum on
-    (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.
-    """
-    s = run.series
-    t = s["t"]
-    regime = classify_regime(t, s["psi"], s["axes"])
-    if regime.minima.size >= 2:
-        window = (t >= regime.minima[0]) & (t <= regime.minima[-1])
-    else:
-        window = t >= t[0] + 0.75 * (t[-1] - t[0])
-
-    def mean(name):
-        y, x = s[name][window], t[window]
-        if np.all(np.isnan(y)):
-            return None
-        return float(np.trapezoid(y, x) / (x[-1] - x[0])) if x.size > 1 else float(y[-1])
-
-    ck = run.checkpoint or {}
-    corrections = ck.get("corrections", {})
-    oscillation = None
-    if regime.name in ("TT", "TR") and regime.minima.size >= 2:
-        minima = local_minima(s["psi"])
-        try:  # from the second minimum of the whole series: past the start-up transient
-            t_min = float(t[minima[min(1, minima.size - 1)]])
-            fit = fit_damped_oscillation(t, s["psi"], t_min=t_min)
-            oscillation = {
-                "omega_R": fit.omega_R,
-                "omega_I": fit.omega_I,
-                "psi_inf": fit.psi_inf,
-                "amplitude": fit.amplitude,
-                "rms_residual": fit.rms_residual,
-                "t_min": fit.t_min,
-            }
-        except ValueError as err:
-            log.info("no damped-oscillation fit: %s", err)
-    return {
-        "regime": regime.name,
-        "regime_detail": regime.detail,
-        "period": regime.period,
-        "t_final": float(t[-1]),
-        "saved_steps": run.n_saved,
-        "steps": ck.get("steps"),
-        "rejected_steps": ck.get("rejected"),
-        "solves": ck.get("solves"),
-        "final": {
-            "psi": float(s["psi"][-1]),
-            "D": float(s["D"][-1]),
-            "axes": s["L"][-1].tolist(),
-            "bending_energy": float(s["bending_energy"][-1]),
-            "reduced_volume": float(s["reduced_volume"][-1]),
-        },
-        "mean": {k: mean(k) for k in ("S_xz", "N1", "N2")},
-        "oscillation": oscillation,
-        "drift": {
-            "area": float(s["area"][-1] / s["area"][0] - 1.0),
-            "volume": float(s["volume"][-1] / s["volume"][0] - 1.0),
-        },
-        "corrections": {
-            "area": corrections.get("area"),
-            "volume": corrections.get("volume"),
-            "recentered": corrections.get("recentered"),
-        },
-        "parameters": run.parameters,
-    }

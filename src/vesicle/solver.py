@@ -19,26 +19,26 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.sparse.linalg import LinearOperator, gmres
 
-from .flows import FLOWS, LinearFlow
+from .flows import LinearFlow
 from .membrane import bending_force, tension_force
+from .parameters import Discretisation, Physics, SolverTolerances
 from .rheology import ParticleStress, particle_stress
 from .sphere.transforms import transform
 from .stokes import LayerPotentials
+from .stokes.spectra import schur_symbol
 from .surface import Shape
 
 __all__ = [
-    "FlowParameters",
     "FlowResult",
     "SolverError",
     "SolverTolerances",
     "VelocityTensionSolver",
     "solve_flow",
-    "sphere_relaxation_rates",
 ]
 
 log = logging.getLogger(__name__)
@@ -53,70 +53,6 @@ class SolverError(RuntimeError):
     def __init__(self, message: str, result: FlowResult | None = None):
         super().__init__(message)
         self.result = result
-
-
-@dataclass(frozen=True)
-class SolverTolerances:
-    """Relative L2 tolerances of the Schur (outer) and ``A_uu`` (inner) GMRES solves."""
-
-    schur: float = 1e-3
-    inner: float = 1e-4
-    max_outer: int = 200
-    max_inner: int = 200
-    restart: int = 50
-
-    def __post_init__(self) -> None:
-        for name in ("schur", "inner"):
-            value = getattr(self, name)
-            if not (np.isfinite(value) and 0.0 < value < 1.0):
-                raise ValueError(f"tolerance {name} must lie in (0, 1), got {value}")
-        for name in ("max_outer", "max_inner", "restart"):
-            if int(getattr(self, name)) < 1:
-                raise ValueError(f"{name} must be a positive integer")
-
-    @classmethod
-    def time_dependent(cls) -> SolverTolerances:
-        """SPEC §6 preset for time stepping: 1e-3 (Schur), 1e-4 (inner)."""
-        return cls(1e-3, 1e-4)
-
-    @classmethod
-    def steady(cls) -> SolverTolerances:
-        """SPEC §6 preset for steady states and Newton: 1e-6 (Schur), 1e-7 (inner)."""
-        return cls(1e-6, 1e-7)
-
-
-@dataclass(frozen=True)
-class FlowParameters:
-    """Physical parameters of a solve: viscosity ratio, shear rate and background flow."""
-
-    lam: float = 1.0
-    chi: float = 1.0
-    flow: LinearFlow = field(default_factory=LinearFlow.shear)
-
-    def __post_init__(self) -> None:
-        try:
-            lam, chi = float(self.lam), float(self.chi)
-        except (TypeError, ValueError):
-            raise ValueError("lam and chi must be numbers") from None
-        if not np.isfinite(lam) or lam <= 0.0:
-            raise ValueError(f"viscosity ratio lam must be positive and finite, got {self.lam}")
-        if not np.isfinite(chi):
-            raise ValueError(f"shear rate chi must be finite, got {self.chi}")
-        flow = self.flow
-        if isinstance(flow, str):
-            if flow not in FLOWS:
-                raise ValueError(f"unknown flow {flow!r}; choose one of {sorted(FLOWS)}")
-            flow = FLOWS[flow]()
-        elif not isinstance(flow, LinearFlow):
-            flow = LinearFlow(flow, "custom")
-        object.__setattr__(self, "lam", lam)
-        object.__setattr__(self, "chi", chi)
-        object.__setattr__(self, "flow", flow)
-
-    @property
-    def driven(self) -> bool:
-        """Whether there is a background flow (``chi != 0`` and a non-zero gradient)."""
-        return self.chi != 0.0 and not self.flow.is_zero
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,7 +71,7 @@ class FlowResult:
     converged: bool
     seconds: float
     stress: ParticleStress
-    params: FlowParameters
+    params: Physics
     tolerances: SolverTolerances
     split: dict[str, ParticleStress] | None = None
 
@@ -172,60 +108,6 @@ def default_tension_degree(n_theta: int) -> int:
     return (3 * n_theta) // 4
 
 
-def _sphere_mobilities(lmax: int, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Degrees ``l`` and the eigenvalues of ``A_uu^-1 N / (8 pi)`` on ``W_l`` and ``V_l`` of the
-    unit sphere (SPEC §15); entries with no such field (``W_0``) are 0."""
-    l = np.arange(lmax + 1, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        n_w = np.where(l > 0, (l + 1) / ((2 * l - 1) * (2 * l + 1)), 0.0)
-        n_v = l / ((2 * l + 1) * (2 * l + 3))
-        k_w = -3.0 / (2 * (2 * l - 1) * (2 * l + 1))
-        k_v = 3.0 / (2 * (2 * l + 1) * (2 * l + 3))
-        a_w = 0.5 * (1 + lam) - (1 - lam) * k_w
-        a_v = 0.5 * (1 + lam) - (1 - lam) * k_v
-        m_w = np.where(l > 0, n_w / a_w, 0.0)
-    return l, m_w, n_v / a_v
-
-
-def schur_symbol(lmax: int, lam: float) -> np.ndarray:
-    """Eigenvalues ``s_l`` of the Schur complement ``A_su A_uu^-1 A_us`` on the unit sphere.
-
-    A tension ``Y_l`` gives ``f_sigma = -(alpha W_l + beta V_l)`` with ``alpha = (l-1)/(2l+1)``,
-    ``beta = (l+2)/(2l+1)``; ``N``, ``K`` act on ``W_l``, ``V_l`` by the eigenvalues of SPEC §15 and
-    ``div_s W_l = -l(l-1) Y_l``, ``div_s V_l = -(l+1)(l+2) Y_l``.  ``s_0 = 0`` (uniform tension is
-    pressure) and ``s_l ~ l / (2 (1 + lam))`` for large ``l``: an operator of order one, which is
-    why the Schur GMRES is preconditioned by ``1/s_l``.
-    """
-    l, m_w, m_v = _sphere_mobilities(lmax, lam)
-    s = ((l - 1) * m_w * l * (l - 1) + (l + 2) * m_v * (l + 1) * (l + 2)) / (2 * l + 1)
-    s[0] = 0.0
-    return s
-
-
-def sphere_relaxation_rates(lmax: int, lam: float, sigma: float = 0.0) -> np.ndarray:
-    """Linear relaxation rates ``Gamma_l`` of shape modes of the unit sphere (bending ``kappa =
-    1``, uniform tension ``sigma``): ``dr_lm/dt = -Gamma_l r_lm`` for ``r = 1 + eps Y_lm``.
-
-    Derived from SPEC §15: the linearised load is ``F Y n`` with
-    ``F = (l-1)(l+2)[l(l+1) + sigma]`` (bending ``L(L-2)``, tension ``-2 H sigma n`` with
-    ``H = -1 + (L-2) eps Y / 2``, ``L = l(l+1)``); ``Y n = (W_l - V_l)/(2l+1)``; the tension
-    perturbation ``tau Y`` is fixed by ``div_s u = 0``; ``Gamma_l = -u . n``.  ``Gamma_0 =
-    Gamma_1 = 0`` (volume, translation).  For large ``l``, ``Gamma_l ~ l^3 / (2 (1 + lam))``:
-    the bending stiffness that limits explicit time steps.  Used as the approximate Jacobian of
-    the linearly implicit integrator (``vesicle.dynamics``); a negative ``sigma`` can make low
-    modes grow (``Gamma_l < 0``), which is physical (buckling).
-    """
-    l, m_w, m_v = _sphere_mobilities(lmax, lam)
-    a, b = l * (l - 1), (l + 1) * (l + 2)
-    F = (l - 1) * (l + 2) * (l * (l + 1) + sigma)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        tau = F * (m_w * a - m_v * b) / (m_w * a * (l - 1) + m_v * b * (l + 2))
-        u_n = (-m_w * l * (F - tau * (l - 1)) - m_v * (l + 1) * (F + tau * (l + 2))) / (2 * l + 1)
-    gamma = -u_n
-    gamma[: min(2, lmax + 1)] = 0.0
-    return gamma
-
-
 class _Counter:
     def __init__(self) -> None:
         self.count = 0
@@ -242,26 +124,34 @@ class VelocityTensionSolver:
     Parameters
     ----------
     shape : Shape
-    params : FlowParameters
+    params : Physics
+        Its ``lam``, ``chi`` and ``flow`` (``v`` is the shape's business).
     tolerances : SolverTolerances, optional
         Default: the time-dependent preset.
     operators : LayerPotentials, optional
-        Prebuilt layer potentials of ``shape`` (default: assembled here).
+        Prebuilt layer potentials of ``shape`` (default: assembled here, with the options of
+        ``discretisation``).
+    discretisation : Discretisation, optional
+        Rotated-grid size, backend, method and threads of the layer potentials.
     """
 
     def __init__(
         self,
         shape: Shape,
-        params: FlowParameters,
+        params: Physics,
         tolerances: SolverTolerances | None = None,
         operators: LayerPotentials | None = None,
         tension_degree: int | None = None,
+        discretisation: Discretisation | None = None,
     ):
         self.shape = shape
         self.params = params
         self.tol = tolerances or SolverTolerances.time_dependent()
         kernels = ("single",) if params.lam == 1.0 else ("single", "double")
-        self.lp = operators if operators is not None else LayerPotentials(shape, kernels=kernels)
+        if operators is None:
+            options = discretisation.operator_options() if discretisation is not None else {}
+            operators = LayerPotentials(shape, kernels=kernels, **options)
+        self.lp = operators
         self.scale = np.sqrt(shape.grid.weights * shape.area_element)
         self.is_sphere = abs(shape.reduced_volume - 1.0) < SPHERE_TOLERANCE
         self._bending = None
@@ -510,10 +400,13 @@ class VelocityTensionSolver:
 
 def solve_flow(
     shape: Shape,
-    lam: float = 1.0,
-    chi: float = 1.0,
-    flow: LinearFlow | str = "shear",
+    physics: Physics | None = None,
+    *,
+    lam: float | None = None,
+    chi: float | None = None,
+    flow: LinearFlow | str | None = None,
     tolerances: SolverTolerances | str = "time-dependent",
+    discretisation: Discretisation | None = None,
     sigma0: np.ndarray | None = None,
     split: bool = False,
     operators: LayerPotentials | None = None,
@@ -524,11 +417,15 @@ def solve_flow(
     Parameters
     ----------
     shape : Shape
-    lam, chi : float
-        Viscosity ratio (> 0) and dimensionless shear rate; ``chi = 0`` is relaxation at rest
-        (the chi-normalised stress is then undefined and reported as ``nan``).
-    flow : LinearFlow or {"shear", "planar-extension", "rotation", "none"}
+    physics : Physics, optional
+        Viscosity ratio, shear rate and background flow (its ``v`` is not used: the shape is
+        given).  Or the keywords ``lam`` (default 1), ``chi`` (default 1) and ``flow`` (default
+        ``"shear"``), not both.  ``chi = 0`` is relaxation at rest (the chi-normalised stress is
+        then undefined and reported as ``nan``).
     tolerances : SolverTolerances or {"time-dependent", "steady"}
+    discretisation : Discretisation, optional
+        Layer-potential options (``n_rot``, ``backend``, ``method``, ``workers``); its grid and
+        degree are the shape's business.
     sigma0 : array, optional
         Initial tension (warm start), e.g. the previous step's.
     split : bool
@@ -537,16 +434,9 @@ def solve_flow(
     raise_on_failure : bool
         Raise :class:`SolverError` if GMRES misses a tolerance (else flag ``converged=False``).
     """
-    params = FlowParameters(lam, chi, flow)
-    if isinstance(tolerances, str):
-        presets = {
-            "time-dependent": SolverTolerances.time_dependent,
-            "steady": SolverTolerances.steady,
-        }
-        if tolerances not in presets:
-            raise ValueError(f"tolerances must be one of {sorted(presets)} or SolverTolerances")
-        tolerances = presets[tolerances]()
-    solver = VelocityTensionSolver(shape, params, tolerances, operators)
+    physics = _physics(shape, physics, lam, chi, flow)
+    tolerances = SolverTolerances.parse(tolerances)
+    solver = VelocityTensionSolver(shape, physics, tolerances, operators, None, discretisation)
     result = solver.solve(sigma0)
     if split:
         parts = {
@@ -569,3 +459,19 @@ def solve_flow(
             result,
         )
     return result
+
+
+def _physics(shape: Shape, physics, lam, chi, flow) -> Physics:
+    """``physics``, or one made of the keywords with the shape's reduced volume."""
+    keywords = {k: x for k, x in (("lam", lam), ("chi", chi), ("flow", flow)) if x is not None}
+    if physics is not None:
+        if keywords:
+            raise ValueError(
+                f"give the physics as a Physics object or as keywords, not both "
+                f"(got Physics and {', '.join(keywords)})"
+            )
+        if not isinstance(physics, Physics):
+            raise TypeError(f"physics must be a vesicle.Physics, got {type(physics).__name__}")
+        return physics
+    v = float(np.clip(shape.reduced_volume, np.finfo(float).tiny, 1.0))
+    return Physics(v=v, **{"lam": 1.0, "chi": 1.0, "flow": "shear", **keywords})

@@ -18,15 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from .solver import SolverTolerances
-from .steady import (
-    FullBasis,
-    NewtonError,
-    SteadyResult,
-    _adot_column,
-    _gradients,
-    steady_tank_treading,
-)
+from .parameters import Discretisation, Physics
+from .sphere.bases import FullBasis
+from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .theory import misbah_critical_lambda
 
 __all__ = ["CriticalResult", "FullBasis", "StabilityResult", "critical_lambda", "stability"]
@@ -49,23 +43,6 @@ class StabilityResult:
         return float(abs(w_r)), float(w_i)
 
 
-def _full_jacobian(result: SteadyResult, basis: FullBasis, executor: Executor | None) -> np.ndarray:
-    tol = result.params["solver_tolerances"]
-    from_shape = result.shape.with_degree(basis.degree)
-    a0 = basis.from_coefficients(from_shape.coefficients)
-    grid = result.shape.grid.n_theta
-    spec = (result.lam, result.chi, FullBasis, basis.degree, grid, SolverTolerances(*tol))
-    h = 1e-4 * max(1.0, abs(a0[0]))
-    steps = [h * e for e in np.eye(basis.size)]
-    points = [a0 + d for d in steps] + [a0 - d for d in steps]  # central differences
-    if executor is None:
-        values = [_adot_column(spec, c) for c in points]
-    else:
-        values = list(executor.map(_adot_column, [spec] * len(points), points))
-    values = np.array(values).T
-    return (values[:, : basis.size] - values[:, basis.size :]) / (2.0 * h)
-
-
 def stability(
     result: SteadyResult, modes: str = "symmetric", executor: Executor | None = None
 ) -> StabilityResult:
@@ -77,10 +54,11 @@ def stability(
         g = result.gradients
         extra = np.zeros((0, basis.size))
     elif modes == "general":
-        basis = FullBasis(result.basis.degree)
-        M = _full_jacobian(result, basis, executor)
-        phi = basis.functions(result.shape.grid)
-        g = _gradients(result.shape, basis, phi)
+        problem = result.problem.replace(modes="general")
+        basis = problem.basis
+        a0 = problem.coefficients_of(result.shape)
+        M, _ = problem.jacobian(a0, central=True, executor=executor)
+        g = problem.gradients(result.shape)
         extra = np.eye(basis.size)[basis.l == 1]  # translations
     else:
         raise ValueError("modes must be 'symmetric' or 'general'")
@@ -142,27 +120,41 @@ class CriticalResult:
 
 
 def critical_lambda(
-    v: float,
-    chi: float,
-    degree: int = 8,
-    grid: int = 32,
+    physics: Physics | float,
+    discretisation: Discretisation | float | None = None,
+    degree: int | None = None,
+    grid: int | None = None,
     lam0: float | None = None,
     step: float = 0.05,
     factor: float = 1.5,
     xtol: float = 1e-3,
     executor: Executor | None = None,
     progress=None,
+    max_iterations: int = 12,
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
+
+    Called as ``critical_lambda(physics, discretisation)`` (``physics.lam`` is not used: it is
+    what is sought) or as ``critical_lambda(v, chi, degree=8, grid=32)``.
 
     Starts at ``lam0`` (default: the leading-order estimate, at least 1) and at ``lam0`` moved
     by the relative ``step`` towards the crossing (up when stable); then secant steps in
     ``log lam``, pushed 20 % past the predicted root and limited to a factor ``factor``, until
     ``max omega_I`` changes sign; then Brent's method to ``xtol``.  Each evaluation starts
-    Newton from the nearest solution found so far, with chord iterations on its Jacobian
-    (:func:`steady_tank_treading`), so a nearby evaluation costs little more than the
-    stability Jacobian itself.
+    Newton (at most ``max_iterations`` iterations) from the nearest solution found so far, with
+    chord iterations on its Jacobian (:func:`steady_tank_treading`), so a nearby evaluation
+    costs little more than the stability Jacobian itself.
     """
+    if isinstance(physics, Physics):
+        if discretisation is None:
+            discretisation = Discretisation(
+                **{k: x for k, x in (("grid", grid), ("degree", degree)) if x is not None}
+            )
+    else:
+        physics = Physics(v=physics, chi=discretisation)
+        discretisation = Discretisation(
+            grid=32 if grid is None else grid, degree=8 if degree is None else degree
+        )
     history: list[tuple[float, float, float]] = []
     solutions: dict[float, SteadyResult] = {}
 
@@ -176,7 +168,12 @@ def critical_lambda(
             start = solutions[nearest]
         try:
             steady = steady_tank_treading(
-                v, lam, chi, degree, grid, initial=start, executor=executor, progress=progress
+                physics.replace(lam=lam),
+                discretisation,
+                initial=start,
+                executor=executor,
+                progress=progress,
+                max_iterations=max_iterations,
             )
         except NewtonError as err:
             raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err
@@ -188,7 +185,7 @@ def critical_lambda(
             progress({"lam": lam, "omega_R": w_r, "omega_I": w_i})
         return w_i
 
-    lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(v))
+    lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(physics.v))
     lo, hi = _bracket(growth, lam, step, factor)
     lam_c = brentq(growth, lo, hi, xtol=xtol)
     nearest = min(history, key=lambda h: abs(h[0] - lam_c))

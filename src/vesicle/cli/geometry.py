@@ -7,12 +7,14 @@ import json
 import click
 import numpy as np
 
-from ..flows import FLOWS
+from ..parameters import Physics
 from ..solver import SolverError, default_tension_degree, solve_flow
 from ..sphere.rotation import rotation_matrix
+from ..stokes import LayerPotentials
 from ..surface import Shape, ShapeError
 from .base import fail as _fail
 from .base import main
+from .options import discretisation_options, physics_options
 
 
 def shape_summary(s: Shape) -> dict:
@@ -117,9 +119,8 @@ def parse_shape(spec: str, grid: int, degree: int | None, tilt_degrees: float) -
     show_default=True,
     help="Rotate the shape in the x-z plane: long axis from x towards z, degrees.",
 )
-@click.option("--lam", type=float, default=1.0, show_default=True, help="Viscosity ratio.")
-@click.option("--chi", type=float, default=1.0, show_default=True, help="Dimensionless shear rate.")
-@click.option("--flow", type=click.Choice(sorted(FLOWS)), default="shear", show_default=True)
+@physics_options(("lam", "chi", "flow"))
+@discretisation_options(("n_rot", "backend", "method", "threads"))
 @click.option(
     "--grid", type=int, default=32, show_default=True, help="n_theta (n_phi = 2 n_theta)."
 )
@@ -127,17 +128,20 @@ def parse_shape(spec: str, grid: int, degree: int | None, tilt_degrees: float) -
 @click.option("--steady", is_flag=True, help="Tight tolerances (1e-6/1e-7) instead of 1e-3/1e-4.")
 @click.option("--split", is_flag=True, help="Also report the bending and flow parts of S.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
-def solve(shape_spec, tilt, lam, chi, flow, grid, degree, steady, split, as_json) -> None:
+def solve(shape_spec, tilt, grid, degree, steady, split, as_json, **options) -> None:
     """Membrane velocity, tension and particle stress of a fixed shape."""
     try:
         s = parse_shape(shape_spec, grid, degree, tilt)
+        lam, chi, flow = options.pop("lam"), options.pop("chi"), options.pop("flow")
+        physics = Physics(v=min(1.0, s.reduced_volume), lam=lam, chi=chi, flow=flow)
+        layer_options = {k: options[k] for k in ("n_rot", "backend", "method")}
+        layer_options["kernels"] = ("single",) if lam == 1.0 else ("single", "double")
         result = solve_flow(
             s,
-            lam=lam,
-            chi=chi,
-            flow=flow,
+            physics,
             split=split,
             tolerances="steady" if steady else "time-dependent",
+            operators=LayerPotentials(s, workers=options["threads"], **layer_options),
         )
     except (ShapeError, ValueError, SolverError) as err:
         _fail(str(err))

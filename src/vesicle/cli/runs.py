@@ -4,29 +4,31 @@ from __future__ import annotations
 
 import csv
 import json
+import os
 import signal
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 import click
 from tqdm import tqdm
 
-from ..dynamics import INTEGRATORS, RunParameters
-from ..flows import FLOWS
+from ..analysis import summarize
+from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
 from ..io import RunData, read_run
+from ..parameters import SolverTolerances
 from ..plots import plot_run
-from ..simulation import SimulationError, load_parameters, simulate, summarize
+from ..simulation import SimulationError, load_parameters, simulate
 from ..solver import SolverError
 from ..steady import NewtonError, steady_tank_treading
 from ..surface import ShapeError
 from ..vtk import export_vtk
 from .base import fail, main
+from .options import discretisation_options, make_discretisation, make_physics, physics_options
 
 
 def _default(name: str):
-    """The library's default of a :class:`RunParameters` field (one source for CLI and API)."""
-    return RunParameters.__dataclass_fields__[name].default
+    """The library's default of a run setting (one source for CLI and API)."""
+    return RUN_DEFAULTS[name]
 
 
 CSV_COLUMNS = (
@@ -55,19 +57,13 @@ def _load(path: str) -> RunData:
         fail(str(err))
 
 
-def _start_shape(init: str, options: dict):
+def _start_shape(init: str, physics, discretisation):
     """``spheroid``, ``tt`` (the steady tank-treading shape by Newton) or ``FILE[:INDEX]``."""
     if init == "spheroid":
         return None
     if init == "tt":
         try:
-            return steady_tank_treading(
-                options["v"],
-                options["lam"],
-                options["chi"],
-                degree=options["degree"],
-                grid=options["grid"],
-            ).shape
+            return steady_tank_treading(physics, discretisation).shape
         except (ValueError, NewtonError) as err:
             fail(f"--init tt: {err}")
     path, _, index = init.partition(":")
@@ -107,21 +103,46 @@ def _sigterm(*_) -> None:
     raise KeyboardInterrupt
 
 
+#: Options that ``--resume`` may be given with (everything else is the stored run's).
+_RESUME_OPTIONS = {"resume", "t_end", "plot", "progress", "overwrite"}
+
+
+def _refuse_changes_on_resume(ctx: click.Context, path: str) -> None:
+    """A resumed run continues as it was set up: refuse options that would silently not apply."""
+    given = [
+        name
+        for name in ctx.params
+        if name not in _RESUME_OPTIONS
+        and ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE
+    ]
+    if given:
+        names = ", ".join("--" + n.replace("_", "-") for n in given)
+        fail(
+            f"--resume continues {path} with its stored parameters; {names} cannot be changed "
+            f"(only --t-end). To change them, start a new run from its last state: "
+            f"vesicle run --init {path} --out NEW.h5 ..."
+        )
+
+
+def _check_writable(out: Path, overwrite: bool) -> None:
+    """Refuse, before any work, an output the run could not write or would silently replace."""
+    folder = out.parent if str(out.parent) else Path(".")
+    if not folder.is_dir():
+        fail(f"the output folder {folder} does not exist (for --out {out})")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        fail(f"the output folder {folder} is not writable (for --out {out})")
+    if out.exists() and not overwrite:
+        fail(
+            f"{out} exists; choose another --out, continue it with --resume {out}, "
+            "or replace it with --overwrite"
+        )
+
+
 @main.command()
-@click.option(
-    "--v", "v", type=float, default=_default("v"), show_default=True, help="Reduced volume."
-)
-@click.option(
-    "--lam", type=float, default=_default("lam"), show_default=True, help="Viscosity ratio."
-)
-@click.option("--chi", type=float, default=_default("chi"), show_default=True, help="Shear rate.")
-@click.option("--flow", type=click.Choice(sorted(FLOWS)), default="shear", show_default=True)
-@click.option("--t-end", type=float, default=1.0, show_default=True, help="End time.")
+@physics_options()
+@click.option("--t-end", type=float, default=_default("t_end"), show_default=True, help="End time.")
 @click.option("--out", type=click.Path(dir_okay=False), default="run.h5", show_default=True)
-@click.option("--grid", type=int, default=24, show_default=True, help="n_theta of the grid.")
-@click.option(
-    "--degree", type=int, default=_default("degree"), show_default=True, help="Shape degree N."
-)
+@discretisation_options()
 @click.option(
     "--init",
     default="spheroid",
@@ -131,11 +152,13 @@ def _sigterm(*_) -> None:
 @click.option(
     "--tilt",
     type=float,
-    default=0.0,
+    default=_default("tilt"),
     help="Tilt (degrees) about the shorter in-plane principal axis, for out-of-plane starts.",
 )
-@click.option("--perturb", type=float, default=0.0, help="Random perturbation amplitude.")
-@click.option("--seed", type=int, default=0, help="Seed of the random perturbation.")
+@click.option(
+    "--perturb", type=float, default=_default("perturb"), help="Random perturbation amplitude."
+)
+@click.option("--seed", type=int, default=_default("seed"), help="Seed of the perturbation.")
 @click.option(
     "--save-every",
     type=float,
@@ -164,10 +187,12 @@ def _sigterm(*_) -> None:
 @click.option(
     "--steady-tol",
     type=float,
-    default=0.0,
+    default=_default("steady_tol"),
     help="Stop once max |dr/dt| falls below this (0: never).",
 )
-@click.option("--periods", type=int, default=0, help="Stop after this many periods of psi.")
+@click.option(
+    "--periods", type=int, default=_default("periods"), help="Stop after this many psi periods."
+)
 @click.option(
     "--split-stress",
     is_flag=True,
@@ -182,8 +207,8 @@ def _sigterm(*_) -> None:
 )
 @click.option(
     "--tolerances",
-    type=click.Choice(["time-dependent", "steady"]),
-    default=_default("tolerances"),
+    type=click.Choice(SolverTolerances.PRESETS),
+    default="time-dependent",
     show_default=True,
     help="Velocity-solve tolerances (SPEC §6): 1e-3/1e-4, or the tight 1e-6/1e-7.",
 )
@@ -207,23 +232,28 @@ def _sigterm(*_) -> None:
     help="Write the figures next to the output file at the end.",
 )
 @click.option("--progress/--no-progress", default=True, show_default=True)
+@click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
 @click.pass_context
-def run(ctx, resume, plot, progress, **options) -> None:
+def run(ctx, resume, plot, progress, overwrite, **options) -> None:
     """Time-dependent simulation of a vesicle in shear (writes an HDF5 run file)."""
     signal.signal(signal.SIGTERM, _sigterm)
     try:
         if resume:
+            _refuse_changes_on_resume(ctx, resume)
             data = _load(resume)
             params = load_parameters(data)
             if ctx.get_parameter_source("t_end") != click.core.ParameterSource.DEFAULT:
-                params = replace(params, t_end=options["t_end"])
+                params = params.replace(t_end=options["t_end"])
             out, start = resume, None
+            _check_writable(Path(out), overwrite=True)
         else:
             data, out = None, options.pop("out")
-            start = _start_shape(options["init"], options)
+            _check_writable(Path(out), overwrite)
+            physics, discretisation = make_physics(options), make_discretisation(options)
             options["drift_control"] = not options.pop("no_drift_control")
-            params = RunParameters(**{k: v for k, v in options.items() if k != "out"})
-    except (ValueError, ShapeError) as err:
+            params = RunParameters(physics, discretisation, **options)
+            start = _start_shape(params.init, physics, discretisation)
+    except (ValueError, TypeError, ShapeError) as err:
         fail(str(err))
     t0 = float(data.checkpoint["t"]) if data is not None and data.checkpoint else 0.0
     bar = _Bar(t0, params.t_end, progress)
@@ -288,7 +318,10 @@ def analyze(file, as_json, as_csv) -> None:
 def plot(file, outdir) -> None:
     """PNG figures of a run: psi(t), D(t), S(t), D-psi orbit, shape projections, axes."""
     data = _load(file)
-    paths = plot_run(data, outdir or Path(file).with_suffix(""))
+    try:
+        paths = plot_run(data, outdir or Path(file).with_suffix(""))
+    except OSError as err:
+        fail(f"cannot write the figures: {err}")
     for p in paths:
         click.echo(str(p))
 
@@ -310,4 +343,6 @@ def export(file, vtk_dir, every) -> None:
         paths = export_vtk(data, vtk_dir, every=every)
     except ValueError as err:
         fail(str(err))
+    except OSError as err:
+        fail(f"cannot write the VTK files: {err}")
     click.echo(f"wrote {len(paths) - 1} surfaces and {paths[-1]}")

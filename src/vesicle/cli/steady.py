@@ -12,6 +12,7 @@ import click
 from ..stability import critical_lambda, stability
 from ..steady import NewtonError, steady_tank_treading
 from .base import fail, main
+from .options import discretisation_options, make_discretisation, make_physics, physics_options
 
 
 def _executor(workers: int):
@@ -27,36 +28,51 @@ def _echo_progress(info: dict) -> None:
     )
 
 
+_MAX_ITERATIONS = click.option(
+    "--max-iterations",
+    type=int,
+    default=12,
+    show_default=True,
+    help="Newton iterations per steady state before giving up.",
+)
+
+
 @main.command()
-@click.option("--v", "v", type=float, default=0.95, show_default=True, help="Reduced volume.")
-@click.option("--lam", type=float, default=8.0, show_default=True, help="Viscosity ratio.")
-@click.option("--chi", type=float, default=10.0, show_default=True, help="Shear rate.")
-@click.option("--degree", type=int, default=8, show_default=True, help="Shape degree N.")
-@click.option("--grid", type=int, default=32, show_default=True, help="n_theta of the grid.")
+@physics_options()
+@discretisation_options()
 @click.option("--stability", "with_stability", is_flag=True, help="Eigenvalues of the state.")
 @click.option(
     "--modes", type=click.Choice(["symmetric", "general"]), default="symmetric", show_default=True
 )
+@_MAX_ITERATIONS
 @click.option(
     "--workers", type=int, default=1, show_default=True, help="Processes for the Jacobian columns."
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def tt(v, lam, chi, degree, grid, with_stability, modes, workers, as_json) -> None:
+def tt(with_stability, modes, max_iterations, workers, as_json, **options) -> None:
     """Steady tank-treading shape by Newton (and its linear stability)."""
     try:
+        physics, disc = make_physics(options), make_discretisation(options)
         with _executor(workers) as pool:
             r = steady_tank_treading(
-                v, lam, chi, degree=degree, grid=grid, executor=pool, progress=_echo_progress
+                physics,
+                disc,
+                executor=pool,
+                progress=_echo_progress,
+                max_iterations=max_iterations,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
-    except (ValueError, NewtonError) as err:
+    except (ValueError, TypeError, NewtonError) as err:
         fail(str(err))
     out = {
-        "v": v,
-        "lam": lam,
-        "chi": chi,
-        "degree": degree,
-        "grid": grid,
+        "v": physics.v,
+        "lam": physics.lam,
+        "chi": physics.chi,
+        "flow_type": physics.flow.name,
+        "degree": disc.degree,
+        "grid": disc.grid,
+        "physics": physics.to_dict(),
+        "discretisation": disc.to_dict(),
         "psi": r.psi,
         "D": r.D,
         "axes": r.axes.tolist(),
@@ -79,10 +95,8 @@ def tt(v, lam, chi, degree, grid, with_stability, modes, workers, as_json) -> No
 
 
 @main.command()
-@click.option("--v", "v", type=float, default=0.95, show_default=True, help="Reduced volume.")
-@click.option("--chi", type=float, default=1.0, show_default=True, help="Shear rate.")
-@click.option("--degree", type=int, default=8, show_default=True, help="Shape degree N.")
-@click.option("--grid", type=int, default=32, show_default=True, help="n_theta of the grid.")
+@physics_options(("v", "chi", "flow"))
+@discretisation_options()
 @click.option("--lam0", type=float, default=None, help="First lambda to try.")
 @click.option(
     "--step",
@@ -92,31 +106,34 @@ def tt(v, lam, chi, degree, grid, with_stability, modes, workers, as_json) -> No
     help="Relative move of lambda from --lam0 to the second evaluation; secant steps follow.",
 )
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
+@_MAX_ITERATIONS
 @click.option("--workers", type=int, default=1, show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def critical(v, chi, degree, grid, lam0, step, xtol, workers, as_json) -> None:
+def critical(lam0, step, xtol, max_iterations, workers, as_json, **options) -> None:
     """Critical viscosity ratio where steady tank-treading loses stability."""
     try:
+        physics, disc = make_physics(options), make_discretisation(options)
         with _executor(workers) as pool:
             c = critical_lambda(
-                v,
-                chi,
-                degree=degree,
-                grid=grid,
+                physics,
+                disc,
                 lam0=lam0,
                 step=step,
                 xtol=xtol,
                 executor=pool,
                 progress=_echo_progress,
+                max_iterations=max_iterations,
             )
-    except (ValueError, NewtonError, RuntimeError) as err:
+    except (ValueError, TypeError, NewtonError, RuntimeError) as err:
         fail(str(err))
     _print(
         {
-            "v": v,
-            "chi": chi,
-            "degree": degree,
-            "grid": grid,
+            "v": physics.v,
+            "chi": physics.chi,
+            "degree": disc.degree,
+            "grid": disc.grid,
+            "physics": {k: x for k, x in physics.to_dict().items() if k != "lam"},
+            "discretisation": disc.to_dict(),
             "lambda_c": c.lambda_c,
             "bifurcation": c.bifurcation,
             "omega_R": c.omega_R,

@@ -15,11 +15,11 @@ the degree-``2 lmax`` products involved.
 
 from __future__ import annotations
 
-from functools import cache
 from typing import NamedTuple
 
 import numpy as np
 
+from ..caches import bounded_cache
 from .grid import SphereGrid, spherical_basis
 from .legendre import legendre_table
 
@@ -119,7 +119,7 @@ def y_rotation_quadrature(beta: float, lmax: int) -> YRotation:
     return YRotation(plus, minus)
 
 
-@cache
+@bounded_cache("quarter_turns")
 def _quarter_turns(lmax: int) -> tuple[np.ndarray, np.ndarray]:
     """Fixed factors of ``Ry(beta) = M^T Rz(beta) M``, ``M = Rz(-pi/2) Ry(pi/2) Rz(pi/2)``.
 

@@ -13,12 +13,13 @@ over ``(l, m)`` kept for the tests.
 
 from __future__ import annotations
 
-from functools import cache, cached_property
+from functools import cached_property
 from typing import NamedTuple
 
 import ducc0
 import numpy as np
 
+from ..caches import bounded_cache
 from .grid import SphereGrid
 from .legendre import legendre_reference, legendre_table
 
@@ -28,6 +29,7 @@ __all__ = [
     "analysis_reference",
     "evaluate",
     "mode_energy",
+    "real_matmul",
     "resize",
     "synthesis_reference",
     "transform",
@@ -45,7 +47,7 @@ class Derivatives(NamedTuple):
     pp: np.ndarray
 
 
-def _real_matmul(mat: np.ndarray, data: np.ndarray) -> np.ndarray:
+def real_matmul(mat: np.ndarray, data: np.ndarray) -> np.ndarray:
     """``mat @ data``: real ``mat`` (K, a, b), complex ``data`` (K, b, B), without upcasting."""
     k, _, nb = data.shape
     re = np.ascontiguousarray(data).view(np.float64)  # (K, b, 2B), interleaved re/im
@@ -96,7 +98,7 @@ class SHTransform:
         M = self.lmax + 1
         F = ducc0.fft.r2c(f.reshape(-1, *g.shape), axes=(2,), inorm=2)[:, :, :M]
         F = F.transpose(2, 1, 0)  # (m, i, B)
-        c = _real_matmul(self._tables[1], F)  # (m, l, B)
+        c = real_matmul(self._tables[1], F)  # (m, l, B)
         return c.transpose(2, 1, 0).reshape(*batch, M, M)
 
     # ----------------------------------------------------------------- synthesis
@@ -106,7 +108,7 @@ class SHTransform:
         M = self.lmax + 1
         cm = c.reshape(-1, M, M).transpose(2, 1, 0)  # (m, l, B)
         nt = self.grid.n_theta
-        G = _real_matmul(self._tables[0][:, : orders * nt], cm)  # (m, orders*i, B)
+        G = real_matmul(self._tables[0][:, : orders * nt], cm)  # (m, orders*i, B)
         return G.reshape(M, orders, nt, -1), batch
 
     def _fourier_stage(self, spectra: np.ndarray) -> np.ndarray:
@@ -138,7 +140,7 @@ class SHTransform:
         return self.synthesis(c)
 
 
-@cache
+@bounded_cache("transform")
 def transform(n_theta: int, lmax: int | None = None) -> SHTransform:
     """Shared transform for ``n_theta`` rings up to degree ``lmax`` (default ``n_theta - 1``)."""
     grid = SphereGrid(n_theta)

@@ -19,10 +19,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .kernels import PAIRS as KERNEL_PAIRS
+
 __all__ = ["PAIRS", "ring_components", "scatter_rows"]
 
-#: The six stored components ``(a, b)``, ``a <= b``, of a symmetric 3x3 kernel, in their order.
-PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+#: The six stored components of a symmetric kernel: the one definition of :mod:`.kernels`.
+PAIRS = KERNEL_PAIRS
 
 
 @njit(cache=True, nogil=True)
@@ -177,6 +179,7 @@ def scatter_rows(
     six components ``first .. first + 5`` are one kernel's ``(00, 01, 02, 11, 12, 22)``.  The
     phase ``e^{-i m phi_k}`` (``cos``, ``sin``: (T, K)) is applied on the way, and each symmetric
     component is written to both of its places in ``out`` (3 [density], 2 [Re, Im], T,
-    3 [output], rings, K).  The NumPy equivalent is in ``LayerPotentials._assemble_ring``.
+    3 [output], rings, K).  The NumPy equivalent:
+    :func:`.backends.numpy_backend.assemble_ring_numpy`.
     """
     _scatter(re, im, cos, sin, out, ring, first, _PAIR_A, _PAIR_B)

@@ -31,8 +31,8 @@ from threadpoolctl import threadpool_limits
 
 from ..sphere.transforms import transform
 from ..surface import Shape
-from .fused import PAIRS as _PAIRS
-from .fused import ring_components, scatter_rows
+from .backends import get_backend
+from .kernels import stokeslet_apply, stresslet_apply
 from .quadrature import RingGeometry, SingularQuadrature, singular_quadrature
 
 __all__ = ["METHODS", "LayerPotentials", "double_layer", "single_layer"]
@@ -40,9 +40,6 @@ __all__ = ["METHODS", "LayerPotentials", "double_layer", "single_layer"]
 log = logging.getLogger(__name__)
 
 METHODS = ("assembled", "matrix-free")
-
-#: Implementations of the assembly's kernel evaluation: fused and compiled, or the NumPy reference.
-BACKENDS = ("numba", "numpy")
 
 #: The two layer potentials, in assembly order.
 KERNELS = ("single", "double")
@@ -69,9 +66,10 @@ class LayerPotentials:
         The operators the caller will apply: "assembled" builds them together, in one pass over
         the rings, on first need (an operator not listed is still available; it is then built
         on its own).  The velocity solve at ``lam = 1`` needs only the single layer.
-    backend : {"numba", "numpy"}
-        Kernel evaluation in assembly: the fused compiled kernel of :mod:`.fused` (default) or
-        the NumPy reference, which is slower and builds the same matrices to rounding.
+    backend : str
+        A name of :data:`vesicle.stokes.backends.BACKENDS`: ``"numba"``, the fused compiled
+        kernels of :mod:`.fused` (default), or ``"numpy"``, the reference, which is slower and
+        builds the same matrices to rounding.
     """
 
     def __init__(
@@ -83,8 +81,7 @@ class LayerPotentials:
         kernels: tuple[str, ...] = KERNELS,
         backend: str = "numba",
     ):
-        if backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+        self._assemble_rows = get_backend(backend)
         self.backend = backend
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {method!r}")
@@ -144,73 +141,18 @@ class LayerPotentials:
     def _single_ring(self, i: int, cf: np.ndarray) -> np.ndarray:
         g = self.rings[i]
         f = self.quad.values(i, cf).transpose(1, 0, 2)  # (3, Q, K)
-        inv_r = g.inv_r
-        xf = np.einsum("iqk,iqk->qk", g.xh, f)
-        return np.einsum("qk,iqk->ik", g.weight * inv_r, f) + np.einsum(
-            "qk,iqk->ik", g.weight * inv_r**3 * xf, g.xh
-        )
+        return stokeslet_apply(g.xh, f * g.weight, g.inv_r).sum(axis=1)
 
     def _double_ring(self, i: int, cu: np.ndarray, u0: np.ndarray) -> np.ndarray:
         g = self.rings[i]
         du = self.quad.values(i, cu).transpose(1, 0, 2) - u0[:, None, :]
-        coef = _stresslet_scalar(g) * np.einsum("iqk,iqk->qk", g.xh, du)
-        return np.einsum("qk,iqk->ik", coef, g.xh) - 4.0 * np.pi * u0
+        return stresslet_apply(g.xh, g.normal_weighted, du, g.inv_r).sum(axis=1) - 4.0 * np.pi * u0
 
     # ----------------------------------------------------------- assembly
     def _assemble_ring(self, i: int, kinds: tuple[str, ...], out: dict[str, np.ndarray]) -> None:
-        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``.
-
-        The one dispatch point between the fused kernels of :mod:`.fused` (default) and the
-        NumPy reference (``backend="numpy"``); both share the BLAS-batched pull-back."""
-        q = self.quad
-        if self.backend == "numba":
-            r, rt, rp = q.ring_radius(i, self.shape.coefficients)
-            comps, subtraction = ring_components(
-                r, rt, rp, q.ring_frame(i), q.inv_sin_rot, q.weights_rot,
-                self.shape.grid.phi, self.shape.x[:, i], kinds,
-            )  # fmt: skip
-            re, im = q.pull_back_unphased(i, comps)
-            cos, sin = q.phase_parts
-            for k, kind in enumerate(kinds):
-                scatter_rows(re, im, cos, sin, out[kind], i, len(_PAIRS) * k)
-        else:
-            comps, subtraction = self._ring_components_reference(i, kinds)
-            rows = q.pull_back(i, comps)  # (2, ntri, 6 per kind, K)
-            for k, kind in enumerate(kinds):
-                block = out[kind][:, :, :, :, i]  # (3 [density], 2, ntri, 3 [out], K)
-                for p, (a, b) in enumerate(_PAIRS):
-                    block[b, :, :, a] = rows[:, :, p + k * len(_PAIRS)]
-                    block[a, :, :, b] = rows[:, :, p + k * len(_PAIRS)]
-        if subtraction is not None:
-            # singularity subtraction of the double layer: -(sum_q T n w J) u0 - 4 pi u0
-            out["double_diagonal"][i] = subtraction - 4.0 * np.pi * np.eye(3)
-
-    def _ring_components_reference(
-        self, i: int, kinds: tuple[str, ...]
-    ) -> tuple[np.ndarray, np.ndarray | None]:
-        """NumPy reference of :func:`.fused.ring_components`: kernel components of ``kinds`` at
-        ring ``i``'s rotated nodes, (Q, 6 per kind, K), and the double layer's subtraction
-        diagonal ``-sum_q T n w J`` (K, 3, 3) if requested."""
-        g = self.ring_geometry(i)
-        inv_r = g.inv_r
-        scal = {}
-        if "single" in kinds:
-            scal["single"] = g.weight * inv_r**3
-        if "double" in kinds:
-            scal["double"] = _stresslet_scalar(g)
-        diag = g.weight * inv_r
-        n = len(_PAIRS)
-        comps = np.empty((g.xh.shape[1], n * len(kinds), g.xh.shape[2]))  # (Q, 6 per kind, K)
-        for p, (a, b) in enumerate(_PAIRS):
-            xx = g.xh[a] * g.xh[b]
-            for k, kind in enumerate(kinds):
-                comps[:, p + k * n] = scal[kind] * xx
-                if kind == "single" and a == b:
-                    comps[:, p + k * n] += diag
-        subtraction = None
-        if "double" in kinds:
-            subtraction = -np.einsum("qk,iqk,jqk->kij", scal["double"], g.xh, g.xh)
-        return comps, subtraction
+        """Rows of ring ``i`` of the operators ``kinds``, written into the preallocated ``out``
+        by the chosen backend (:mod:`.backends`)."""
+        self._assemble_rows(self.quad, self.shape, i, kinds, out)
 
     def _matrix(self, kind: str) -> np.ndarray:
         """The assembled ``kind`` operator; on first need, every kernel of ``self.kernels`` not
@@ -295,8 +237,7 @@ class LayerPotentials:
 
         def ring(i):
             g = self.ring_geometry(i)
-            coef = _stresslet_scalar(g) * np.einsum("iqk,i->qk", g.xh, c)
-            return np.einsum("qk,iqk->ik", coef, g.xh)
+            return stresslet_apply(g.xh, g.normal_weighted, c[:, None, None], g.inv_r).sum(1)
 
         return np.stack(self._map_rings(ring), axis=1)
 
@@ -309,12 +250,7 @@ class LayerPotentials:
 
         def ring(i):
             g = self.ring_geometry(i)
-            inv_r = g.inv_r
-            n_w = g.normal_weighted  # w J n
-            xn = np.einsum("iqk,iqk->qk", g.xh, n_w)
-            return np.einsum("qk,iqk->ik", inv_r, n_w) + np.einsum(
-                "qk,iqk->ik", inv_r**3 * xn, g.xh
-            )
+            return stokeslet_apply(g.xh, g.normal_weighted, g.inv_r).sum(axis=1)  # w J n
 
         return np.stack(self._map_rings(ring), axis=1)
 
@@ -333,11 +269,6 @@ class LayerPotentials:
     def double_operator(self) -> LinearOperator:
         """``K`` as a :class:`scipy.sparse.linalg.LinearOperator` on flattened fields."""
         return self._operator(self.double_layer)
-
-
-def _stresslet_scalar(g: RingGeometry) -> np.ndarray:
-    """``-6 (xh . n) w J / r^5``, so that ``T_ijk n_k w J = this * xh_i xh_j``."""
-    return -6.0 * np.einsum("iqk,iqk->qk", g.xh, g.normal_weighted) * g.inv_r**5
 
 
 def single_layer(shape: Shape, f: np.ndarray, **options) -> np.ndarray:

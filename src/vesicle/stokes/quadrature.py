@@ -18,14 +18,16 @@ rotated nodes into rows of the layer-potential operators in coefficient space (a
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import cache, cached_property
+from functools import cached_property
 
 import ducc0
 import numpy as np
 
+from ..caches import bounded_cache
 from ..sphere.grid import SphereGrid, spherical_basis
 from ..sphere.legendre import legendre_table
 from ..sphere.rotation import rotation_matrix, y_rotation
+from ..sphere.transforms import real_matmul
 
 __all__ = ["RingGeometry", "SingularQuadrature", "singular_quadrature"]
 
@@ -153,7 +155,7 @@ class SingularQuadrature:
         P, dP = self.legendre_rot
         cm = c.transpose(1, 0, 2)  # (m, l, B)
         tables = (P, dP) if derivative else (P,)
-        spectra = [_real_matmul(T[:n, :, :n], cm) for T in tables]  # (m, a, B)
+        spectra = [real_matmul(T[:n, :, :n], cm) for T in tables]  # (m, a, B)
         if not derivative:
             return self._azimuthal(spectra[0])
         spectra.append(1j * np.arange(n)[:, None, None] * spectra[0])
@@ -286,14 +288,7 @@ class SingularQuadrature:
         return RingGeometry(xh=x, weight=w * J, normal_weighted=jn)
 
 
-def _real_matmul(mat: np.ndarray, data: np.ndarray) -> np.ndarray:
-    """``mat @ data``: real ``mat`` (K, a, b), complex ``data`` (K, b, B), without upcasting."""
-    k, _, nb = data.shape
-    re = np.ascontiguousarray(data).view(np.float64)
-    return np.matmul(mat, re).view(np.complex128).reshape(k, mat.shape[1], nb)
-
-
-@cache
+@bounded_cache("singular_quadrature")
 def singular_quadrature(n_theta: int, n_rot: int | None = None) -> SingularQuadrature:
     """Shared quadrature tables; ``n_rot`` defaults to ``n_theta`` (see docs for convergence)."""
     return SingularQuadrature(n_theta, n_theta if n_rot is None else n_rot)

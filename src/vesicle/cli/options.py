@@ -1,0 +1,76 @@
+"""Command-line options of the parameter objects: one default per parameter, read from the
+objects themselves (:class:`~vesicle.parameters.Physics`, :class:`~vesicle.parameters.
+Discretisation`, :data:`vesicle.dynamics.RUN_DEFAULTS`), and the objects built from them."""
+
+from __future__ import annotations
+
+import click
+
+from ..flows import FLOWS
+from ..parameters import METHODS, Discretisation, Physics
+from ..stokes.backends import BACKENDS
+
+__all__ = ["discretisation_options", "make_discretisation", "make_physics", "physics_options"]
+
+_P = Physics()
+_D = Discretisation()
+
+
+def _apply(decorators):
+    def wrap(fn):
+        for d in reversed(decorators):
+            fn = d(fn)
+        return fn
+
+    return wrap
+
+
+def physics_options(names=("v", "lam", "chi", "flow")):
+    """``--v --lam --chi --flow`` with the defaults of :class:`Physics`."""
+    table = {
+        "v": click.option("--v", "v", type=float, default=_P.v, show_default=True,
+                          help="Reduced volume, in (0, 1]."),
+        "lam": click.option("--lam", type=float, default=_P.lam, show_default=True,
+                            help="Viscosity ratio mu_in / mu_out."),
+        "chi": click.option("--chi", type=float, default=_P.chi, show_default=True,
+                            help="Dimensionless shear rate (strain rate of other flows)."),
+        "flow": click.option("--flow", type=click.Choice(sorted(FLOWS)), default=_P.flow.name,
+                             show_default=True, help="Background linear flow."),
+    }  # fmt: skip
+    return _apply([table[n] for n in names])
+
+
+def discretisation_options(names=("grid", "degree", "n_rot", "backend", "method", "threads")):
+    """``--grid --degree --n-rot --backend --method --threads`` with the defaults of
+    :class:`Discretisation`."""
+    table = {
+        "grid": click.option("--grid", type=int, default=_D.grid, show_default=True,
+                             help="n_theta of the grid (n_phi = 2 n_theta)."),
+        "degree": click.option("--degree", type=int, default=_D.degree, show_default=True,
+                               help="Shape degree N."),
+        "n_rot": click.option("--n-rot", type=int, default=None,
+                              help="theta' nodes of the rotated quadrature grid [default: grid]."),
+        "backend": click.option("--backend", type=click.Choice(tuple(BACKENDS)),
+                                default=_D.backend, show_default=True,
+                                help="Layer-potential assembly kernels (numpy: the reference)."),
+        "method": click.option("--method", type=click.Choice(METHODS), default=_D.method,
+                               show_default=True, help="Layer potentials assembled or not."),
+        "threads": click.option("--threads", type=int, default=None,
+                                help="Threads over latitude rings in assembly [default: <= 2]."),
+    }  # fmt: skip
+    return _apply([table[n] for n in names])
+
+
+def make_physics(options: dict, **overrides) -> Physics:
+    """The :class:`Physics` of the parsed options (popped from ``options``)."""
+    values = {k: options.pop(k) for k in ("v", "lam", "chi", "flow") if k in options}
+    return Physics(**{**values, **overrides})
+
+
+def make_discretisation(options: dict) -> Discretisation:
+    """The :class:`Discretisation` of the parsed options (popped from ``options``)."""
+    values = {k: options.pop(k) for k in ("grid", "degree", "n_rot", "backend", "method")
+              if k in options}  # fmt: skip
+    if "threads" in options:
+        values["workers"] = options.pop("threads")
+    return Discretisation(**values)
