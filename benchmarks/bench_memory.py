@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import gc
 import resource
-import sys
 from pathlib import Path
 
 import vesicle as vs
@@ -27,6 +26,20 @@ def _peak_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+def _tables(grids=(24, 32, 48, 64, 24, 32)) -> list[dict]:
+    """Only the quadrature tables (Wigner blocks included), no operators: what a worker keeps."""
+    from vesicle.stokes import singular_quadrature
+
+    rows = []
+    print(f"{'tables':>6} {'kept MB':>9}")
+    for n in grids:
+        singular_quadrature(n).wigner  # noqa: B018
+        gc.collect()
+        rows.append({"grid": n, "kept_mb": _rss_mb()})
+        print(f"{n:>6} {rows[-1]['kept_mb']:9.0f}")
+    return rows
+
+
 def run(grids=(24, 32, 48, 24, 32, 48)) -> dict:
     rows = []
     print(f"{'grid':>6} {'kept MB':>9} {'peak MB':>9}")
@@ -37,7 +50,7 @@ def run(grids=(24, 32, 48, 24, 32, 48)) -> dict:
         gc.collect()
         rows.append({"grid": n, "kept_mb": _rss_mb(), "peak_mb": _peak_mb()})
         print(f"{n:>6} {rows[-1]['kept_mb']:9.0f} {rows[-1]['peak_mb']:9.0f}")
-    out = {"builds": rows}
+    out = {"builds": rows, "tables": _tables()}
     try:
         from vesicle.caches import cache_info, clear_caches
     except ImportError:  # the code before the bounded caches

@@ -83,7 +83,8 @@ class OldAPI:
             th, ph = np.meshgrid(shape.grid.theta, shape.grid.phi, indexing="ij")
             f = np.stack([np.cos(th) * np.sin(ph), np.sin(th) ** 2, np.cos(2 * ph) * np.sin(th)])
             lp = vs.LayerPotentials(shape)
-            values += [*lp.single_layer(f)[:, ::3, ::5].ravel(), *lp.double_layer(f)[:, ::3, ::5].ravel()]
+            single, double = lp.single_layer(f), lp.double_layer(f)
+            values += [*single[:, ::3, ::5].ravel(), *double[:, ::3, ::5].ravel()]
         return values
 
     def spectra(self):

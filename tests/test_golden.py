@@ -17,13 +17,14 @@ import json
 
 import numpy as np
 import pytest
-from golden_numbers import PATH, _cpu, compute
 
 import vesicle as vs
 from vesicle.dynamics import RunParameters
 from vesicle.simulation import simulate
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.stokes.spectra import schur_symbol, sphere_relaxation_rates
+
+from golden_numbers import PATH, _cpu, compute
 
 
 class NewAPI:

@@ -9,10 +9,10 @@ import vesicle as vs
 from vesicle.flows import LinearFlow
 from vesicle.parameters import Physics
 from vesicle.solver import SolverError, SolverTolerances, VelocityTensionSolver, solve_flow
-from vesicle.stokes.spectra import schur_symbol, sphere_relaxation_rates
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.sphere.transforms import transform
 from vesicle.stokes import LayerPotentials
+from vesicle.stokes.spectra import schur_symbol, sphere_relaxation_rates
 
 
 @pytest.fixture(scope="module")

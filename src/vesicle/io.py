@@ -11,10 +11,8 @@ Layout of a run file (all written by :func:`write_run`):
     hold the flat ``v, lam, chi, flow, flow_gradient, grid, degree, tolerances, ...``; both read
     back to equal :class:`~vesicle.dynamics.RunParameters`.
 ``/series/<name>``
-    one entry per saved step: ``t, psi, D, L`` (n, 3: principal-axis lengths, descending),
-    ``axes`` (n, 3, 3: row k is the unit vector of axis k), ``area, volume, reduced_volume,
-    bending_energy, S`` (n, 3, 3), ``S_xz, N1, N2, dt, outer_iterations, inner_iterations,
-    spectrum`` (n, N+1), ``centroid`` (n, 3), ``area_correction, volume_correction``.
+    one entry per saved step for each name of :data:`SERIES` (the one list of saved series,
+    with each one's trailing shape and meaning).
 ``/shapes/coefficients``
     (n, N+1, N+1) complex radius coefficients at the saved steps (SPEC §2 normalisation).
 ``/checkpoint``
@@ -38,42 +36,56 @@ import numpy as np
 from . import __version__
 from .surface import Shape
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "RunData", "read_run", "write_run"]
+__all__ = [
+    "FORMAT",
+    "FORMAT_VERSION",
+    "SERIES",
+    "RunData",
+    "read_run",
+    "series_shape",
+    "write_run",
+]
 
 FORMAT = "vesicle-run"
 FORMAT_VERSION = 2
 
-#: Series stored per saved step, with their trailing shapes.
+#: Series stored per saved step: trailing shape (``"N+1"``: one per degree) and meaning.
 SERIES = {
-    "t": (),
-    "psi": (),
-    "D": (),
-    "L": (3,),
-    "axes": (3, 3),
-    "area": (),
-    "volume": (),
-    "reduced_volume": (),
-    "bending_energy": (),
-    "S": (3, 3),
-    "S_bending": (3, 3),  # the split S = S^B + S^V (SPEC §11); nan unless asked for
-    "S_flow": (3, 3),
-    "S_xz": (),
-    "N1": (),
-    "N2": (),
-    "dt": (),
-    "outer_iterations": (),
-    "inner_iterations": (),
-    "centroid": (3,),
-    "area_correction": (),
-    "volume_correction": (),
+    "t": ((), "time (mu a^3 / kappa)"),
+    "psi": ((), "inclination angle in the x-z plane (rad)"),
+    "D": ((), "deformation (L1 - L2) / (L1 + L2) in the x-z plane"),
+    "L": ((3,), "principal-axis lengths, descending (a)"),
+    "axes": ((3, 3), "principal axes: row k is the unit vector of axis k"),
+    "area": ((), "area (a^2)"),
+    "volume": ((), "volume (a^3)"),
+    "reduced_volume": ((), "reduced volume"),
+    "bending_energy": ((), "bending energy (kappa)"),
+    "S": ((3, 3), "specific particle stress (SPEC §11)"),
+    "S_bending": ((3, 3), "bending part S^B of S (nan unless asked for)"),
+    "S_flow": ((3, 3), "flow-resistance part S^V of S (nan unless asked for)"),
+    "S_xz": ((), "specific shear stress"),
+    "N1": ((), "first normal stress difference S_xx - S_zz (scaled by |chi|)"),
+    "N2": ((), "second normal stress difference S_zz - S_yy (scaled by |chi|)"),
+    "dt": ((), "the step that reached this time"),
+    "outer_iterations": ((), "Schur GMRES iterations of this state's solve"),
+    "inner_iterations": ((), "A_uu GMRES iterations of this state's solve"),
+    "centroid": ((3,), "volume centroid before re-centring (a)"),
+    "area_correction": ((), "total relative area restored by drift control so far"),
+    "volume_correction": ((), "total relative volume restored by drift control so far"),
+    "spectrum": (("N+1",), "modal energy E_l of the radius (SPEC (3.5))"),
 }
+
+
+def series_shape(name: str, degree: int) -> tuple[int, ...]:
+    """The trailing shape of series ``name`` for shape degree ``degree``."""
+    return tuple(degree + 1 if n == "N+1" else n for n in SERIES[name][0])
 
 
 @dataclass
 class RunData:
     """Everything in a run file, in memory.
 
-    ``series`` maps the names of :data:`SERIES` (and ``spectrum``) to arrays whose first axis runs
+    ``series`` maps the names of :data:`SERIES` to arrays whose first axis runs
     over the saved steps; ``coefficients`` holds the shapes at those steps.
     """
 

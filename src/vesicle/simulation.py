@@ -1,11 +1,12 @@
 """The time-dependent run: stepping, saved diagnostics, checkpoints, restart and stop conditions.
 
 :func:`simulate` drives :class:`vesicle.dynamics.Integrator` from a start shape (or a checkpoint)
-to ``t_end``, saving diagnostics every ``save_every`` time units (steps land exactly on save
-times) and writing the whole run file atomically every ``checkpoint_every`` wall seconds, at the
-end, and when interrupted (``KeyboardInterrupt``, which the CLI also raises on SIGTERM).  A run
-resumed from its file continues bit-identically: the checkpoint holds the state, the proposed
-step and the tension warm start with which the current state was evaluated.
+to ``t_end``, saving diagnostics every ``save_every`` time units and at the end (steps land
+exactly on save times) and writing the whole run file atomically every ``checkpoint_every`` wall
+seconds, at the end, and when interrupted (``KeyboardInterrupt``, which the CLI also raises on
+SIGTERM).  A run resumed from its file continues bit-identically: the checkpoint holds the
+state, the proposed step and the tension warm start with which the current state was
+evaluated.
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 
 from .analysis import classify_regime, diagnose, summarize
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
-from .io import SERIES, RunData, write_run
+from .io import SERIES, RunData, series_shape, write_run
 from .solver import solve_flow
 from .surface import Shape
 
@@ -41,8 +42,7 @@ def load_parameters(run: RunData) -> RunParameters:
 
 def _new_run(params: RunParameters, shape: Shape) -> RunData:
     parameters = params.to_dict()
-    series = {k: np.zeros((0, *shp)) for k, shp in SERIES.items()}
-    series["spectrum"] = np.zeros((0, params.degree + 1))
+    series = {k: np.zeros((0, *series_shape(k, params.degree))) for k in SERIES}
     coefficients = np.zeros((0, params.degree + 1, params.degree + 1), complex)
     return RunData(parameters, series, coefficients)
 
@@ -93,6 +93,8 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float, params: R
         "volume_correction": state.corrections["volume"],
         "spectrum": d.spectrum,
     }
+    if row.keys() != SERIES.keys():  # the one list of saved series is io.SERIES
+        raise RuntimeError(f"saved series {sorted(row)} differ from io.SERIES")
     for key, value in row.items():
         value = np.asarray(value, float)
         old = run.series.get(key)
@@ -186,6 +188,9 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
             psi = _record(run, current, state, dt_taken, params)
             state.next_save = state.t + params.save_every
         if state.t >= params.t_end - eps or _should_stop(params, run, current):
+            # the final state is saved even between save times (t_end or an early stop)
+            if not (run.n_saved and run.series["t"][-1] >= state.t - eps):
+                _record(run, current, state, dt_taken, params)
             break
         dt = min(state.dt, state.next_save - state.t, params.t_end - state.t)
         result = integ.step(state.coefficients, dt, current)

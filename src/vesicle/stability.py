@@ -109,6 +109,20 @@ def _bracket(f, x0: float, step: float, factor: float, moves: int = 12) -> tuple
     return min(x0, x1), max(x0, x1)
 
 
+def _critical_objects(physics, discretisation, degree, grid, v, chi):
+    """The parameter objects of either call form of :func:`critical_lambda`."""
+    sizes = {k: x for k, x in (("grid", grid), ("degree", degree)) if x is not None}
+    if isinstance(physics, Physics):
+        if v is not None or chi is not None:
+            raise ValueError("give the physics as a Physics object or as v, chi, not both")
+        return physics, discretisation if discretisation is not None else Discretisation(**sizes)
+    v = physics if physics is not None else v
+    chi = discretisation if discretisation is not None else chi
+    if v is None or chi is None:
+        raise TypeError("critical_lambda needs Physics (and Discretisation), or v and chi")
+    return Physics(v=v, chi=chi), Discretisation(**sizes)
+
+
 @dataclass(frozen=True)
 class CriticalResult:
     """``lambda_c`` where the largest ``omega_I`` crosses zero, and the bifurcation type."""
@@ -120,7 +134,7 @@ class CriticalResult:
 
 
 def critical_lambda(
-    physics: Physics | float,
+    physics: Physics | float | None = None,
     discretisation: Discretisation | float | None = None,
     degree: int | None = None,
     grid: int | None = None,
@@ -131,6 +145,9 @@ def critical_lambda(
     executor: Executor | None = None,
     progress=None,
     max_iterations: int = 12,
+    *,
+    v: float | None = None,
+    chi: float | None = None,
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
 
@@ -145,16 +162,7 @@ def critical_lambda(
     chord iterations on its Jacobian (:func:`steady_tank_treading`), so a nearby evaluation
     costs little more than the stability Jacobian itself.
     """
-    if isinstance(physics, Physics):
-        if discretisation is None:
-            discretisation = Discretisation(
-                **{k: x for k, x in (("grid", grid), ("degree", degree)) if x is not None}
-            )
-    else:
-        physics = Physics(v=physics, chi=discretisation)
-        discretisation = Discretisation(
-            grid=32 if grid is None else grid, degree=8 if degree is None else degree
-        )
+    physics, discretisation = _critical_objects(physics, discretisation, degree, grid, v, chi)
     history: list[tuple[float, float, float]] = []
     solutions: dict[float, SteadyResult] = {}
 

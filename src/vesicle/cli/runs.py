@@ -14,7 +14,7 @@ from tqdm import tqdm
 
 from ..analysis import summarize
 from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
-from ..io import RunData, read_run
+from ..io import SERIES, RunData, read_run
 from ..parameters import SolverTolerances
 from ..plots import plot_run
 from ..simulation import SimulationError, load_parameters, simulate
@@ -31,22 +31,13 @@ def _default(name: str):
     return RUN_DEFAULTS[name]
 
 
-CSV_COLUMNS = (
-    "t",
-    "psi",
-    "D",
-    "L1",
-    "L2",
-    "L3",
-    "bending_energy",
-    "area",
-    "volume",
-    "S_xz",
-    "N1",
-    "N2",
-    "dt",
-    "outer_iterations",
-    "inner_iterations",
+#: The first columns of ``analyze --csv``, in the order of earlier versions (a public interface)
+_CSV_FIRST = ("t", "psi", "D", "L1", "L2", "L3", "bending_energy", "area", "volume", "S_xz",
+              "N1", "N2", "dt", "outer_iterations", "inner_iterations")  # fmt: skip
+
+#: The CSV columns: those, then every other scalar series of :data:`vesicle.io.SERIES`.
+CSV_COLUMNS = _CSV_FIRST + tuple(
+    name for name, (shape, _) in SERIES.items() if shape == () and name not in _CSV_FIRST
 )
 
 
