@@ -207,3 +207,83 @@ def test_tt_json_with_stability():
 def test_critical_bad_input():
     r = run("critical", "--v", "1.5", "--degree", "2", "--grid", "8")
     assert r.exit_code != 0 and "Traceback" not in r.output
+
+
+FAST_RUN = ("run", "--grid", "12", "--degree", "4", "--no-progress", "--no-plot")
+
+
+def test_run_refuses_a_missing_output_folder_before_any_work(tmp_path):
+    out = tmp_path / "missing" / "x.h5"
+    r = run(*FAST_RUN, "--out", str(out))
+    assert r.exit_code != 0 and "does not exist" in r.output and "Traceback" not in r.output
+
+
+def test_run_refuses_an_unwritable_output_folder(tmp_path, monkeypatch):
+    # the permission check itself (as root a chmod 555 folder stays writable, so it is faked)
+    from vesicle.cli import runs
+
+    monkeypatch.setattr(runs.os, "access", lambda *_: False)
+    r = run(*FAST_RUN, "--out", str(tmp_path / "x.h5"))
+    assert r.exit_code != 0 and "not writable" in r.output and not (tmp_path / "x.h5").exists()
+
+
+@pytest.mark.parametrize("command", ["plot", "export"])
+def test_plot_and_export_to_an_unwritable_place_are_clear_errors(tmp_path, command):
+    out = tmp_path / "r.h5"
+    assert run(*FAST_RUN, "--t-end", "0.01", "--out", str(out)).exit_code == 0
+    target = "/proc/vesicle-cannot-write-here/x"  # not writable, even for root
+    args = ("--out", target) if command == "plot" else ("--vtk", target)
+    r = run(command, str(out), *args)
+    assert r.exit_code != 0 and "cannot write" in r.output and "Traceback" not in r.output
+
+
+def test_final_state_is_saved_between_save_times(tmp_path):
+    out = tmp_path / "r.h5"
+    r = run(*FAST_RUN, "--t-end", "0.03", "--save-every", "0.02", "--out", str(out))
+    assert r.exit_code == 0, r.output
+    summary = json.loads(run("analyze", str(out), "--json").output)
+    assert summary["t_final"] == pytest.approx(0.03) and summary["saved_steps"] == 3
+
+
+def test_resume_refuses_options_it_would_ignore(tmp_path):
+    out = tmp_path / "r.h5"
+    assert run(*FAST_RUN, "--t-end", "0.01", "--out", str(out)).exit_code == 0
+    before = out.read_bytes()
+    r = run("run", "--resume", str(out), "--lam", "8", "--t-end", "0.02", "--no-progress")
+    assert r.exit_code != 0 and "--lam" in r.output and "cannot be changed" in r.output
+    assert out.read_bytes() == before  # untouched
+
+
+def test_run_does_not_overwrite_without_being_asked(tmp_path):
+    out = tmp_path / "r.h5"
+    assert run(*FAST_RUN, "--t-end", "0.01", "--out", str(out)).exit_code == 0
+    before = out.read_bytes()
+    r = run(*FAST_RUN, "--t-end", "0.01", "--lam", "2", "--out", str(out))
+    assert r.exit_code != 0 and "exists" in r.output and out.read_bytes() == before
+    r = run(*FAST_RUN, "--t-end", "0.01", "--lam", "2", "--out", str(out), "--overwrite")
+    assert r.exit_code == 0, r.output
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("--grid", "10", "--degree", "8"), "too coarse"),
+        (("--perturb", "-5"), "perturb"),
+        (("--backend", "cuda"), "backend"),
+        (("--save-every", "0"), "save_every"),
+    ],
+)
+def test_run_refuses_bad_settings_before_any_work(tmp_path, args, message):
+    out = tmp_path / "r.h5"
+    r = run("run", "--out", str(out), "--no-progress", *args)
+    assert r.exit_code != 0 and message in r.output and not out.exists()
+
+
+def test_tt_progress_names_the_parameter_point_and_takes_an_iteration_limit():
+    args = ("tt", "--lam", "8", "--chi", "10", "--degree", "2", "--grid", "12")
+    r = run(*args)
+    assert r.exit_code == 0, r.output
+    assert "lam=8 chi=10 iteration=0" in r.output
+    r = run(*args, "--max-iterations", "1")
+    assert r.exit_code != 0 and "did not converge in 1 iterations" in r.output
+    assert "allow more iterations" in r.output

@@ -273,3 +273,24 @@ def test_regime_from_a_short_tail(omega_i, regime):
     assert classify_regime(t, psi).name == regime
     short = t <= 7.0  # the tail t >= 3.5 holds 1.6 periods: the fit still works
     assert classify_regime(t[short], psi[short]).name == regime
+
+
+def test_ray_radius_reports_non_convergence():
+    """One secant step cannot meet an off-centre ellipsoid: an error, not the last iterate."""
+    from vesicle.analysis import ray_radius
+
+    s = vs.Shape.ellipsoid(1.4, 1.0, 0.8, grid=12)
+    dirs = s.grid.unit_vectors[0]
+    origin = np.array([0.3, 0.1, -0.2])
+    assert np.all(np.isfinite(ray_radius(s, origin, dirs)))
+    with pytest.raises(vs.ShapeError, match="did not meet the surface"):
+        ray_radius(s, origin, dirs, iterations=1)
+
+
+def test_drift_control_reports_non_convergence():
+    s = vs.Shape.ellipsoid(1.3, 1.0, 0.9, grid=12, degree=4)
+    area, volume = s.area * 1.01, s.volume * 0.99
+    restored, _, _ = restore_area_volume(s, area, volume, 4)
+    assert restored.area == pytest.approx(area, rel=1e-12)
+    with pytest.raises(vs.ShapeError, match="drift control did not restore"):
+        restore_area_volume(s, area, volume, 4, iterations=2)

@@ -16,7 +16,7 @@ from itertools import pairwise
 import numpy as np
 
 from .sphere.transforms import evaluate, mode_energy, transform
-from .surface import Shape
+from .surface import Shape, ShapeError
 
 __all__ = [
     "DampedOscillation",
@@ -39,13 +39,19 @@ def _unit_angles(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.arctan2(np.hypot(d[0], d[1]), d[2]), np.arctan2(d[1], d[0])
 
 
+#: Largest miss, relative to the radius, that :func:`ray_radius` accepts.
+RAY_TOLERANCE = 1e-10
+
+
 def ray_radius(
     shape: Shape, origin: np.ndarray, directions: np.ndarray, iterations: int = 30
 ) -> np.ndarray:
     """Distance from ``origin`` to the surface along unit ``directions`` (3, ...).
 
     Solves ``|o + s d| = r(direction of o + s d)`` by the secant method, started from the radius
-    along ``d``; the origin must be inside the (star-shaped) surface.
+    along ``d``; the origin must be inside the (star-shaped) surface.  Raises
+    :class:`~vesicle.surface.ShapeError` if the secant steps do not meet the surface to
+    :data:`RAY_TOLERANCE`.
     """
     o = np.asarray(origin, float).reshape(3, *([1] * (directions.ndim - 1)))
     c = shape.coefficients
@@ -65,6 +71,13 @@ def ray_radius(
         g1 = g(s1)
         if np.max(np.abs(g1)) < 1e-14 * np.max(s1):
             break
+    miss = np.max(np.abs(g1)) if np.all(np.isfinite(g1)) else np.inf
+    if not miss <= RAY_TOLERANCE * np.max(np.abs(s1)):
+        raise ShapeError(
+            f"rays from {np.ravel(o).tolist()} did not meet the surface after {iterations} secant "
+            f"steps (miss {miss:.1e}): the origin is outside, or the surface is not star-shaped "
+            "from it"
+        )
     return s1
 
 
