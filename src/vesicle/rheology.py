@@ -12,9 +12,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .stokes.evaluation import evaluate_double_layer, evaluate_single_layer
 from .surface import Shape
 
-__all__ = ["ParticleStress", "particle_stress"]
+__all__ = ["ParticleStress", "disturbance_velocity", "far_field_stresslet", "particle_stress"]
 
 
 @dataclass(frozen=True)
@@ -84,3 +85,57 @@ def particle_stress(
     un = shape.integrate(np.einsum("i...,j...->ij...", u, n))
     total = (moment + (lam - 1.0) * (un + un.T)) / shape.volume
     return ParticleStress(total, float(chi))
+
+
+def disturbance_velocity(
+    shape: Shape, force: np.ndarray, u: np.ndarray, lam: float, points: np.ndarray
+) -> np.ndarray:
+    """``u - u_inf`` at points (3, ...) outside the vesicle: the boundary-integral
+    representation ``-N[f]/(8 pi) + (1 - lam) K[u]/(8 pi)`` evaluated off the surface."""
+    out = -evaluate_single_layer(shape, force, points) / (8.0 * np.pi)
+    if lam != 1.0:
+        out += (1.0 - lam) / (8.0 * np.pi) * evaluate_double_layer(shape, u, points)
+    return out
+
+
+def far_field_stresslet(
+    shape: Shape,
+    force: np.ndarray,
+    u: np.ndarray,
+    lam: float,
+    radius: float,
+    directions: int = 48,
+    seed: int = 0,
+) -> np.ndarray:
+    """The stresslet read off the disturbance velocity at distance ``radius``: an independent
+    measure of the particle stress (SPEC §11) through the far field.
+
+    A force- and torque-free particle disturbs the flow like ``u'_i = -(3 / 8 pi) x_i (x . S .
+    x) / r^5 + O(r^-4)`` about its centroid, where ``S`` is the symmetric traceless part of
+    ``Omega sigma^p = int [f] x dA + (lam - 1) int (u n + n u) dA`` (Batchelor 1970; a rigid
+    sphere in a strain ``E`` gives ``S = 20 pi E / 3``).  ``u'`` is evaluated on ``directions``
+    antipodal pairs (random, reproducible by ``seed``); the odd part of each pair removes the
+    even multipoles (Stokeslet, quadrupole), and ``S`` and a rotlet are fitted by least squares.
+    The octupole left over biases ``S`` by O(r^-2): extrapolate from two radii.
+
+    Returns ``S`` (3, 3), in the units of ``ParticleStress.per_volume_fraction * V``.
+    """
+    d = np.random.default_rng(seed).standard_normal((3, directions))
+    d /= np.linalg.norm(d, axis=0)
+    c = shape.centroid[:, None]
+    plus = disturbance_velocity(shape, force, u, lam, c + radius * d)
+    minus = disturbance_velocity(shape, force, u, lam, c - radius * d)
+    odd = 0.5 * (plus - minus) * radius**2
+    pairs = ((0, 0), (1, 1), (0, 1), (0, 2), (1, 2))
+    tensors = []
+    for a, b in pairs:  # a basis of symmetric traceless tensors
+        B = np.zeros((3, 3))
+        B[a, b] = B[b, a] = 1.0
+        if a == b:
+            B[2, 2] = -1.0
+        tensors.append(B)
+    columns = [-3.0 / (8.0 * np.pi) * d * np.einsum("ik,ij,jk->k", d, B, d) for B in tensors]
+    columns += [np.cross(e, d, axis=0) for e in np.eye(3)]  # rotlet: numerical torque
+    A = np.stack([col.ravel() for col in columns], axis=1)
+    coef = np.linalg.lstsq(A, odd.ravel(), rcond=None)[0]
+    return sum(x * B for x, B in zip(coef[:5], tensors, strict=True))

@@ -74,6 +74,7 @@ class FlowResult:
     params: Physics
     tolerances: SolverTolerances
     split: dict[str, ParticleStress] | None = None
+    load: np.ndarray | None = None  # the membrane load [f] (3, n_theta, n_phi) of the stress
 
     @property
     def S(self) -> np.ndarray:
@@ -385,6 +386,7 @@ class VelocityTensionSolver:
             stress=stress,
             params=self.params,
             tolerances=self.tol,
+            load=force,
         )
         log.info(
             "solve: %d outer, %d inner iterations, div residual %.2e (rel %.2e), %.2f s%s",
