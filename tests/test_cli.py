@@ -287,3 +287,23 @@ def test_tt_progress_names_the_parameter_point_and_takes_an_iteration_limit():
     r = run(*args, "--max-iterations", "1")
     assert r.exit_code != 0 and "did not converge in 1 iterations" in r.output
     assert "allow more iterations" in r.output
+
+
+def test_critical_at_low_resolution_against_an_independent_fine_bracket():
+    """``vesicle critical`` at N = 4 on 16 x 32 (lambda_c = 8.3371, Hopf, omega_R = 0.387); then
+    fresh Newton solves from the default start (not the search's continuation) 0.3 % either side
+    must have growth rates of opposite signs."""
+    from vesicle.stability import stability
+    from vesicle.steady import steady_tank_treading
+
+    args = ("--degree", "4", "--grid", "16", "--lam0", "8", "--step", "0.02", "--xtol", "1e-3")
+    r = run("critical", "--v", "0.95", "--chi", "1", *args, "--json")
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output.strip().splitlines()[-1])
+    lam_c = out["lambda_c"]
+    assert out["bifurcation"] == "hopf" and 8.2 < lam_c < 8.5
+    grow = [
+        stability(steady_tank_treading(0.95, lam, 1.0, degree=4, grid=16)).most_unstable[1]
+        for lam in (lam_c * 0.997, lam_c * 1.003)
+    ]
+    assert grow[0] < 0 < grow[1]

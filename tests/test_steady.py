@@ -29,11 +29,15 @@ def test_newton_converges_quadratically(steady):
 
 
 def test_symmetric_stability_near_paper(steady):
-    """Paper, Table 1, N = 4 at 32 x 64: (3.226, -5.602e-2); this is 16 x 32."""
+    """Paper, Table 1, N = 4 at 32 x 64: (3.226, -5.602e-2); this is 16 x 32, which gives the
+    same five digits as 32 x 64: (3.22943, -0.06263).  omega_R agrees to 0.11 %.  omega_I is
+    12 % more damped than the paper's at N = 4 (within 5 % from N = 6, 1.2 % at N = 14): a gap
+    of the truncated low-N model investigated in docs/steady.md ("The low-N gap in omega_I"),
+    so the bound is that measured gap, not a loose one."""
     s = stability(steady)
     w_r, w_i = s.most_unstable
-    assert w_r == pytest.approx(3.226, rel=0.01)
-    assert w_i < 0 and w_i == pytest.approx(-0.056, rel=0.25)
+    assert w_r == pytest.approx(3.226, rel=2e-3)
+    assert w_i == pytest.approx(-0.05602, rel=0.13) and w_i < -0.05602
     assert s.omega.shape[0] == steady.basis.size - 2  # the two trivial modes excluded
 
 
@@ -120,10 +124,13 @@ def test_bad_input():
 
 @pytest.mark.slow
 def test_critical_lambda_low_resolution():
-    """lambda_c(v = 0.95, chi = 1) is 8.46 in the paper (N = 8, 32 x 64); N = 4 on 16 x 32 here."""
+    """lambda_c(v = 0.95, chi = 1) is 8.46 in the paper (N = 8, 32 x 64; ours 8.4535 there).
+    N = 4 on 16 x 32 gives 8.3371 (xtol 1e-3, bracket [8.3366, 8.3380], 2026-12-01), a Hopf
+    point with omega_R = 0.387: SPEC §14 says the N = 4 and N = 8 neutral curves nearly coincide
+    at v = 0.95 (here 1.4 % apart)."""
     c = critical_lambda(0.95, 1.0, degree=4, grid=16, lam0=8.0, xtol=1e-2)
-    assert 7.0 < c.lambda_c < 10.0
-    assert c.bifurcation in ("saddle-node", "hopf")
+    assert c.lambda_c == pytest.approx(8.337, abs=0.02)
+    assert c.bifurcation == "hopf" and c.omega_R == pytest.approx(0.387, rel=0.02)
 
 
 @pytest.mark.parametrize(
