@@ -272,6 +272,7 @@ class StepState:
     area0: float = 4.0 * np.pi
     volume0: float = 0.0
     previous_error: float = 1.0  # the step-size controller's memory
+    last_dt: float = 0.0  # the step that reached ``t`` (recorded with the state it reached)
     corrections: dict = field(
         default_factory=lambda: {"area": 0.0, "volume": 0.0, "recentered": 0, "evaluations": 0}
     )
@@ -289,6 +290,7 @@ class StepState:
             "volume0": self.volume0,
             "corrections": self.corrections,
             "previous_error": self.previous_error,
+            "last_dt": self.last_dt,
         }
         if self.sigma_in is not None:
             ck["sigma_in"] = self.sigma_in
@@ -309,6 +311,7 @@ class StepState:
             volume0=float(ck["volume0"]),
             corrections=dict(ck["corrections"]),
             previous_error=float(ck.get("previous_error", 1.0)),
+            last_dt=float(ck.get("last_dt", 0.0)),
         )
 
 

@@ -19,13 +19,17 @@ Layout of a run file (all written by :func:`write_run`):
     the integrator state to resume from (arrays and attributes; see :mod:`vesicle.dynamics`).
 
 Every write goes to ``FILE.tmp`` and is then renamed over ``FILE``, so an interrupted write never
-corrupts an existing file.
+corrupts an existing file.  The root attribute ``checksum`` (:func:`content_checksum`) is
+verified on reading: a damaged or altered file is refused with a clear error.
 """
 
 from __future__ import annotations
 
+import errno
+import hashlib
 import json
 import os
+import shutil
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -41,6 +45,7 @@ __all__ = [
     "FORMAT_VERSION",
     "SERIES",
     "RunData",
+    "content_checksum",
     "read_run",
     "series_shape",
     "write_run",
@@ -147,33 +152,82 @@ def _from_attr(value):
     return value
 
 
+def content_checksum(run: RunData) -> str:
+    """SHA-256 of what a resume and the analysis rely on: the parameters, the series, the saved
+    shapes and the checkpoint (arrays by their bytes, the rest as sorted JSON)."""
+    h = hashlib.sha256()
+
+    def add(name: str, value) -> None:
+        h.update(name.encode())
+        if isinstance(value, np.ndarray):
+            h.update(str((value.dtype.str, value.shape)).encode())
+            h.update(np.ascontiguousarray(value).tobytes())
+        else:
+            h.update(json.dumps(_plain(value), sort_keys=True).encode())
+
+    for key in sorted(run.parameters):
+        add("parameters/" + key, run.parameters[key])
+    for key in sorted(run.series):
+        add("series/" + key, np.asarray(run.series[key]))
+    add("shapes/coefficients", np.asarray(run.coefficients))
+    for key in sorted(run.checkpoint or {}):
+        add("checkpoint/" + key, run.checkpoint[key])
+    return h.hexdigest()
+
+
+def _plain(value):
+    """JSON-able form of attribute values as they read back (tuples as lists, NumPy scalars)."""
+    if isinstance(value, dict):
+        return {str(k): _plain(x) for k, x in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(x) for x in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
 def write_run(path: str | os.PathLike, run: RunData) -> Path:
-    """Write ``run`` atomically to ``path`` (HDF5)."""
+    """Write ``run`` atomically to ``path`` (HDF5), with its :func:`content_checksum`.
+
+    The file is written to ``path.tmp`` and renamed over ``path``: an interrupted or failed
+    write (a full disk) leaves the previous file intact and removes the partial one.
+    """
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     now = datetime.now(UTC).isoformat(timespec="seconds")
-    with h5py.File(tmp, "w") as f:
-        f.attrs["format"] = FORMAT
-        f.attrs["format_version"] = FORMAT_VERSION
-        f.attrs["vesicle_version"] = __version__
-        f.attrs["created"] = run.attributes.get("created", now)
-        f.attrs["updated"] = now
-        params = f.create_group("parameters")
-        for key, value in run.parameters.items():
-            params.attrs[key] = _attr_value(value)
-        series = f.create_group("series")
-        for key, value in run.series.items():
-            series.create_dataset(key, data=np.asarray(value))
-        f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
-        if run.checkpoint is not None:
-            ck = f.create_group("checkpoint")
-            for key, value in run.checkpoint.items():
-                if isinstance(value, np.ndarray):
-                    ck.create_dataset(key, data=value)
-                else:
-                    ck.attrs[key] = _attr_value(value)
-        f.flush()
-    os.replace(tmp, path)
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["format"] = FORMAT
+            f.attrs["format_version"] = FORMAT_VERSION
+            f.attrs["vesicle_version"] = __version__
+            f.attrs["created"] = run.attributes.get("created", now)
+            f.attrs["updated"] = now
+            f.attrs["checksum"] = content_checksum(run)
+            params = f.create_group("parameters")
+            for key, value in run.parameters.items():
+                params.attrs[key] = _attr_value(value)
+            series = f.create_group("series")
+            for key, value in run.series.items():
+                series.create_dataset(key, data=np.asarray(value))
+            f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
+            if run.checkpoint is not None:
+                ck = f.create_group("checkpoint")
+                for key, value in run.checkpoint.items():
+                    if isinstance(value, np.ndarray):
+                        ck.create_dataset(key, data=value)
+                    else:
+                        ck.attrs[key] = _attr_value(value)
+            f.flush()
+        os.replace(tmp, path)
+    except (OSError, RuntimeError) as err:  # HDF5 reports a full disk as a RuntimeError
+        tmp.unlink(missing_ok=True)
+        free = shutil.disk_usage(path.parent).free if path.parent.is_dir() else 0
+        raise OSError(
+            errno.EIO, f"writing {path} failed ({err}; {free / 1e6:.1f} MB free there)"
+        ) from err
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     run.attributes.setdefault("created", now)
     return path
 
@@ -199,4 +253,11 @@ def read_run(path: str | os.PathLike) -> RunData:
             ck = f["checkpoint"]
             checkpoint = {k: _from_attr(v) for k, v in ck.attrs.items()}
             checkpoint.update({k: ck[k][()] for k in ck})
-    return RunData(parameters, series, coefficients, checkpoint, attributes)
+    run = RunData(parameters, series, coefficients, checkpoint, attributes)
+    stored = attributes.get("checksum")
+    if stored is not None and stored != content_checksum(run):
+        raise ValueError(
+            f"{path} is corrupted: its content does not match the checksum written with it "
+            "(the file was changed or damaged after it was written)"
+        )
+    return run

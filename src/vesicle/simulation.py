@@ -182,15 +182,14 @@ def simulate(
 def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
     eps = 1e-12 * max(params.t_end, 1.0)
     psi = float(run.series["psi"][-1]) if run.n_saved else float("nan")
-    dt_taken = 0.0
     while True:
         if state.t >= state.next_save - eps:
-            psi = _record(run, current, state, dt_taken, params)
+            psi = _record(run, current, state, state.last_dt, params)
             state.next_save = state.t + params.save_every
         if state.t >= params.t_end - eps or _should_stop(params, run, current):
             # the final state is saved even between save times (t_end or an early stop)
             if not (run.n_saved and run.series["t"][-1] >= state.t - eps):
-                _record(run, current, state, dt_taken, params)
+                _record(run, current, state, state.last_dt, params)
             break
         dt = min(state.dt, state.next_save - state.t, params.t_end - state.t)
         result = integ.step(state.coefficients, dt, current)
@@ -209,7 +208,7 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
         # proposal it was cut from unless the controller now asks for a smaller one.
         state.dt = max(result.dt_next, state.dt) if dt < state.dt else result.dt_next
         state.previous_error = integ.previous_error
-        dt_taken = dt
+        state.last_dt = dt
         shape, changed = post_step(Shape(result.y_new, params.grid), state, params)
         state.coefficients = shape.coefficients
         if result.final is not None and not changed:

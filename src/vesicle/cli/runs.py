@@ -259,6 +259,13 @@ def run(ctx, resume, plot, progress, overwrite, **options) -> None:
     except (SimulationError, SolverError, ShapeError) as err:
         bar.bar.close()
         fail(f"{err} (checkpoint in {out}; the run file holds everything up to there)")
+    except OSError as err:  # a full disk, a vanished folder: the last written file is intact
+        bar.bar.close()
+        kept = f"{out} keeps the last checkpoint written" if Path(out).exists() else "no file"
+        fail(
+            f"could not write {out}: {err.strerror or err}; {kept} "
+            f"(resume with: vesicle run --resume {out} once the cause is fixed)"
+        )
     bar.bar.close()
     summary = summarize(result)
     click.echo(
@@ -267,7 +274,10 @@ def run(ctx, resume, plot, progress, overwrite, **options) -> None:
         err=True,
     )
     if plot:
-        figures = plot_run(result, Path(out).with_suffix(""), prefix="")
+        try:
+            figures = plot_run(result, Path(out).with_suffix(""), prefix="")
+        except OSError as err:
+            fail(f"the run is complete in {out}, but its figures could not be written: {err}")
         click.echo(f"figures in {Path(out).with_suffix('')}/ ({len(figures)} files)", err=True)
 
 

@@ -1,0 +1,158 @@
+"""Fault injection (issue 17, item 12): killed runs, damaged files, a full disk.
+
+Nothing the user asked for may be lost: a run killed at any moment (SIGKILL: no handler runs)
+resumes from its last checkpoint to a final state bit-identical to an uninterrupted run; a
+truncated or altered run file is refused with a clear error; a full disk stops the run with a
+clear error and leaves the previous file intact.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from vesicle.cli import main
+from vesicle.dynamics import RunParameters
+from vesicle.io import read_run
+from vesicle.simulation import simulate
+
+#: A small run that checkpoints after every step (checkpoint_every is in wall seconds).
+PARAMS = {"grid": 12, "degree": 4, "t_end": 0.3, "save_every": 0.01, "checkpoint_every": 1e-9}
+
+CHILD = """
+import sys
+from pathlib import Path
+from vesicle.dynamics import RunParameters
+from vesicle.io import read_run
+from vesicle.simulation import load_parameters, simulate
+out = Path(sys.argv[1])
+if out.exists():
+    data = read_run(out)
+    simulate(load_parameters(data), out=out, resume=data)
+else:
+    simulate(RunParameters(**{params!r}), out=out)
+print("done")
+"""
+
+
+def _reference():
+    return simulate(RunParameters(**PARAMS))
+
+
+def _killed_and_resumed(out: Path, kills: int, seed: int) -> int:
+    """Run the child, SIGKILL it at random moments ``kills`` times, then let it finish.
+    Returns how many kills interrupted a running child."""
+    rng = np.random.default_rng(seed)
+    code = CHILD.format(params=PARAMS)
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
+    interrupted = 0
+    attempts = 10 * kills + 10
+    for _ in range(attempts):
+        child = subprocess.Popen(
+            [sys.executable, "-c", code, str(out)], env=env, stdout=subprocess.PIPE
+        )
+        if interrupted < kills:
+            time.sleep(rng.uniform(1.0, 4.0))  # import (~1.5 s), then stepping
+            if child.poll() is None:
+                child.send_signal(signal.SIGKILL)
+                child.wait()
+                interrupted += 1
+                continue
+        stdout, _ = child.communicate(timeout=300)
+        assert child.returncode == 0 and b"done" in stdout
+        ck = read_run(out).checkpoint
+        if ck["t"] >= PARAMS["t_end"] - 1e-12 and interrupted >= kills:
+            return interrupted
+    raise AssertionError(f"did not finish after {attempts} attempts")
+
+
+def _assert_identical(run, ref):
+    assert run.n_saved == ref.n_saved
+    for key, value in ref.series.items():
+        np.testing.assert_array_equal(run.series[key], value, err_msg=key)
+    np.testing.assert_array_equal(run.coefficients, ref.coefficients)
+    np.testing.assert_array_equal(run.checkpoint["coefficients"], ref.checkpoint["coefficients"])
+
+
+def test_sigkill_at_random_moments_then_resume_is_bit_identical(tmp_path):
+    out = tmp_path / "killed.h5"
+    assert _killed_and_resumed(out, kills=3, seed=1) >= 3
+    _assert_identical(read_run(out), _reference())
+    assert not (tmp_path / "killed.h5.tmp").exists()
+
+
+@pytest.mark.slow
+def test_twenty_sigkills_then_resume_is_bit_identical(tmp_path):
+    out = tmp_path / "killed.h5"
+    assert _killed_and_resumed(out, kills=20, seed=2) >= 20
+    _assert_identical(read_run(out), _reference())
+
+
+@pytest.fixture
+def run_file(tmp_path):
+    out = tmp_path / "r.h5"
+    simulate(RunParameters(**{**PARAMS, "t_end": 0.02}), out=out)
+    return out
+
+
+def test_truncated_file_is_refused_clearly(run_file):
+    data = run_file.read_bytes()
+    run_file.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match="not a readable HDF5 file"):
+        read_run(run_file)
+    r = CliRunner().invoke(main, ["run", "--resume", str(run_file), "--no-progress"])
+    assert r.exit_code != 0 and "not a readable HDF5 file" in r.output
+    assert "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("where", ["checkpoint", "series", "parameters"])
+def test_altered_file_is_refused_by_its_checksum(run_file, where):
+    with h5py.File(run_file, "r+") as f:
+        if where == "checkpoint":
+            f["checkpoint"]["coefficients"][0, 0] += 1e-9
+        elif where == "series":
+            f["series"]["psi"][-1] += 1e-9
+        else:
+            f["parameters"].attrs["t_end"] = 5.0
+    with pytest.raises(ValueError, match="corrupted"):
+        read_run(run_file)
+    r = CliRunner().invoke(main, ["run", "--resume", str(run_file), "--no-progress"])
+    assert r.exit_code != 0 and "corrupted" in r.output and "Traceback" not in r.output
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 160 KB tmpfs (needs root; skipped elsewhere)."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=160k", "tmpfs", str(mount)], capture_output=True
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a small tmpfs here: {done.stderr.decode().strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+
+
+def test_full_disk_is_a_clear_error_and_keeps_the_previous_file(small_disk):
+    out = small_disk / "r.h5"
+    args = ["run", "--grid", "12", "--degree", "4", "--t-end", "2", "--save-every", "0.002",
+            "--checkpoint-every", "0.000001", "--out", str(out), "--no-progress",
+            "--no-plot"]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code != 0, r.output
+    assert "could not write" in r.output and "Traceback" not in r.output
+    kept = read_run(out)  # intact: readable, checksum verified
+    assert 0 < kept.checkpoint["t"] < 2.0
+    assert not Path(str(out) + ".tmp").exists()
