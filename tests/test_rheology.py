@@ -17,8 +17,10 @@ import pytest
 
 import vesicle as vs
 from vesicle import theory
+from vesicle.dynamics import RunParameters
 from vesicle.membrane import membrane_force
 from vesicle.rheology import far_field_stresslet
+from vesicle.simulation import simulate
 from vesicle.sphere.rotation import rotation_matrix
 
 TIGHT = vs.SolverTolerances(1e-10, 1e-11)
@@ -35,6 +37,13 @@ def _far_field(shape, r, lam):
     return (4.0 * far - near) / 3.0  # Richardson in r^-2
 
 
+def _tumbling_snapshot():
+    """A shape from a time-dependent run in the TR/TU range (lam = 10, chi = 8; TR at N = 8),
+    mid-transient: no symmetry beyond the run's own."""
+    p = RunParameters(v=0.95, lam=10.0, chi=8.0, grid=16, degree=4, t_end=0.1, perturb=0.02)
+    return simulate(p).shape()
+
+
 def _ellipsoid():
     return vs.Shape.ellipsoid(1.3, 0.95, 0.8, grid=24, degree=6).rotated(rotation_matrix("y", -0.4))
 
@@ -46,6 +55,7 @@ def _ellipsoid():
         (_ellipsoid, 5.0, 1.0),
         # no symmetry at all, like a TR/TU snapshot: the identity is instantaneous
         (lambda: vs.Shape.spheroid(0.9, grid=24, degree=6).perturbed(0.05, seed=1), 8.0, 3.0),
+        (_tumbling_snapshot, 10.0, 8.0),
     ],
 )
 def test_stress_equals_the_far_field_stresslet(make, lam, chi):
