@@ -144,7 +144,7 @@ def critical_lambda(
     xtol: float = 1e-3,
     executor: Executor | None = None,
     progress=None,
-    max_iterations: int = 12,
+    max_iterations: int | None = None,
     *,
     v: float | None = None,
     chi: float | None = None,

@@ -45,6 +45,9 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
+#: Jacobian update strategies of the Newton iteration (see :func:`steady_tank_treading`).
+UPDATES = ("broyden", "none")
+
 #: Tolerances of each velocity solve in Newton and stability: tighter than SPEC's 1e-6/1e-7 so
 #: that the finite-difference Jacobian is clean.
 NEWTON_TOLERANCES = SolverTolerances(1e-8, 1e-9)
@@ -77,6 +80,7 @@ class SteadyResult:
     split: dict[str, ParticleStress]
     seconds: float
     solves: int
+    jacobians: int = 0  # Newton Jacobians formed by differences (the stability one not counted)
 
     @property
     def physics(self) -> Physics:
@@ -191,11 +195,12 @@ def steady_tank_treading(
     lam: float | None = None,
     initial: np.ndarray | Shape | SteadyResult | None = None,
     tolerance: float = 1e-8,
-    max_iterations: int = 12,
+    max_iterations: int | None = None,
     solver_tolerances: SolverTolerances | None = None,
     executor: Executor | None = None,
     chord_contraction: float = 0.7,
     progress=None,
+    updates: str = "broyden",
 ) -> SteadyResult:
     """Newton–Raphson for the steady tank-treading shape (SPEC §8).
 
@@ -214,24 +219,35 @@ def steady_tank_treading(
     tolerance : float
         Converged when the residual's max-norm is below ``tolerance`` (relative to ``chi`` for
         the dynamic part).
-    max_iterations : int
-        Newton iterations before giving up with :class:`NewtonError`.
+    max_iterations : int, optional
+        Newton iterations before giving up with :class:`NewtonError`; default 30 with Broyden
+        updates (their steps are one solve each and converge superlinearly), 12 without.
     solver_tolerances : SolverTolerances
         Of each velocity solve; default :data:`NEWTON_TOLERANCES` (1e-8 Schur, 1e-9 inner).
     executor : concurrent.futures.Executor, optional
         Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
     chord_contraction : float
-        Largest residual ratio accepted from a chord iteration (see ``initial``).
+        Largest residual ratio accepted from a step on a reused Jacobian (see ``initial``).
+    updates : {"broyden", "none"}
+        ``"broyden"`` (default): once a Newton step on a Jacobian formed by differences has
+        contracted the residual by ``chord_contraction``, that Jacobian is reused for the
+        following steps with good-Broyden rank-one updates (one solve per step) until a step
+        contracts it by less; then a fresh one is formed.  Far from the solution Newton forms
+        fresh Jacobians as the reference does.
+        ``"none"``: the reference, a fresh Jacobian at every Newton step once the chord steps
+        on a neighbour's Jacobian stop paying (the method before the Broyden updates).
     progress : callable, optional
         Called after every Newton iteration with ``{"lam", "chi", "iteration", "residual",
         "seconds"}``.
     """
     physics, discretisation = _objects(physics, discretisation, chi, degree, grid, v, lam)
     _check_problem(physics)
+    if max_iterations is None:
+        max_iterations = 30 if updates == "broyden" else 12
     if int(max_iterations) < 1:
         raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
     problem = SteadyProblem(physics, discretisation, solver_tolerances or NEWTON_TOLERANCES)
-    newton = _Newton(problem, executor, chord_contraction, progress)
+    newton = _Newton(problem, executor, chord_contraction, progress, updates)
     newton.start(initial)
     converged = newton.iterate(tolerance, int(max_iterations))
     result = newton.result(converged)
@@ -250,7 +266,15 @@ def steady_tank_treading(
 class _Newton:
     """The Newton iteration's state: iterate, multipliers, history, the chord Jacobian."""
 
-    def __init__(self, problem: SteadyProblem, executor, chord_contraction: float, progress):
+    def __init__(
+        self, problem: SteadyProblem, executor, chord_contraction: float, progress, updates: str
+    ):
+        if updates not in UPDATES:
+            raise ValueError(f"updates must be one of {UPDATES}, got {updates!r}")
+        self.updates = updates
+        self.fresh = False  # whether the last step used a freshly differenced Jacobian
+        self.candidate = None  # that Jacobian, until the step's contraction is known
+        self.jacobians = 0  # Jacobians formed by differences
         self.P = problem
         self.executor = executor
         self.contraction = chord_contraction
@@ -310,8 +334,9 @@ class _Newton:
                 if it == max_iterations:  # report the last representable iterate
                     self.state = previous
                     return False
-                if self.chord is not None:
-                    log.info("chord step left the representable shapes (%s): fresh Jacobian", err)
+                if not self.fresh:
+                    log.info("step on a reused Jacobian left the representable shapes (%s): "
+                             "fresh Jacobian", err)  # fmt: skip
                     self.chord, state = None, previous
                 else:  # a Newton step too long for the radial representation: halve it
                     log.info("Newton step left the representable shapes (%s): halved", err)
@@ -326,8 +351,12 @@ class _Newton:
                 self.state = state
                 if res < tolerance:
                     return True
-                if self.chord is not None and previous is not None:
+                if previous is not None and self.fresh:
+                    self._adopt(self.history[-1] / self.history[-2])
+                elif previous is not None:
                     state = self.state = self._check_chord(state, previous)
+                if previous is not None and self.chord is not None and state is not previous:
+                    self._broyden(previous, state)
             if it == max_iterations:
                 return False
             previous = self.state = state
@@ -336,20 +365,44 @@ class _Newton:
         return False
 
     def _check_chord(self, state, previous):
+        """After a step on a reused Jacobian: keep it while it contracts the residual by
+        ``contraction``; else a fresh one (from the last state if the step made things worse)."""
         ratio = self.history[-1] / self.history[-2]
         if ratio <= self.contraction:
             return state
-        log.info("chord step contracted by %.2f only: fresh Jacobian", ratio)
+        log.info("step on a reused Jacobian contracted by %.2f only: fresh Jacobian", ratio)
         self.chord = None
-        return previous if ratio > 1.0 else state  # made things worse: step from the last one
+        return previous if ratio > 1.0 else state
+
+    def _adopt(self, ratio: float) -> None:
+        """After a step on a fresh Jacobian: with Broyden updates, keep reusing it once such a
+        step has contracted the residual by ``contraction`` (Newton's basin); farther out,
+        Newton keeps forming fresh Jacobians, like the reference."""
+        if self.updates == "broyden" and ratio <= self.contraction:
+            self.chord = self.candidate
+        self.candidate = None
+
+    def _broyden(self, previous, state) -> None:
+        """Good Broyden update of the reused Jacobian with the step just taken (SPEC §8's M
+        only; the constraint gradients are exact at every iterate)."""
+        if self.updates != "broyden":
+            return
+        da = state[0] - previous[0]
+        dr = state[2] - previous[2]
+        norm = float(da @ da)
+        if norm > 0.0:
+            self.chord = self.chord + np.outer(dr - self.chord @ da, da) / norm
 
     def _step(self, state) -> np.ndarray:
         a, _, rate, sigma, g, G, _ = state
-        if self.chord is not None:
-            M = self.chord
-        else:
+        self.fresh = self.chord is None
+        if self.fresh:
             M, n = self.P.jacobian(a, rate, sigma, executor=self.executor)
             self.solves += n
+            self.jacobians += 1
+            self.candidate = M  # reused with rank-one updates if this step contracts enough
+        else:
+            M = self.chord
         return _newton_step(M, g, G)
 
     def result(self, converged: bool) -> SteadyResult:
@@ -381,6 +434,7 @@ class _Newton:
             split=split_flow.split,
             seconds=time.perf_counter() - self.t0,
             solves=self.solves,
+            jacobians=self.jacobians,
         )
 
 

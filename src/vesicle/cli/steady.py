@@ -10,7 +10,7 @@ from contextlib import nullcontext
 import click
 
 from ..stability import critical_lambda, stability
-from ..steady import NewtonError, steady_tank_treading
+from ..steady import UPDATES, NewtonError, steady_tank_treading
 from .base import fail, main
 from .options import discretisation_options, make_discretisation, make_physics, physics_options
 
@@ -31,9 +31,16 @@ def _echo_progress(info: dict) -> None:
 _MAX_ITERATIONS = click.option(
     "--max-iterations",
     type=int,
-    default=12,
+    default=None,
+    help="Newton iterations per steady state before giving up [default: 30; 12 with "
+    "--updates none].",
+)
+_UPDATES = click.option(
+    "--updates",
+    type=click.Choice(UPDATES),
+    default="broyden",
     show_default=True,
-    help="Newton iterations per steady state before giving up.",
+    help="Newton's Jacobian: reused with Broyden updates, or fresh at every step (reference).",
 )
 
 
@@ -45,11 +52,12 @@ _MAX_ITERATIONS = click.option(
     "--modes", type=click.Choice(["symmetric", "general"]), default="symmetric", show_default=True
 )
 @_MAX_ITERATIONS
+@_UPDATES
 @click.option(
     "--workers", type=int, default=1, show_default=True, help="Processes for the Jacobian columns."
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def tt(with_stability, modes, max_iterations, workers, as_json, **options) -> None:
+def tt(with_stability, modes, max_iterations, updates, workers, as_json, **options) -> None:
     """Steady tank-treading shape by Newton (and its linear stability)."""
     try:
         physics, disc = make_physics(options), make_discretisation(options)
@@ -60,6 +68,7 @@ def tt(with_stability, modes, max_iterations, workers, as_json, **options) -> No
                 executor=pool,
                 progress=_echo_progress,
                 max_iterations=max_iterations,
+                updates=updates,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
     except (ValueError, TypeError, NewtonError) as err:
@@ -80,6 +89,8 @@ def tt(with_stability, modes, max_iterations, workers, as_json, **options) -> No
         "bending": r.split["bending"].summary(),
         "flow": r.split["flow"].summary(),
         "newton_iterations": r.newton_iterations,
+        "jacobians": r.jacobians,
+        "updates": updates,
         "residual": r.residual,
         "residual_history": list(r.residual_history),
         "multipliers": list(r.multipliers),
