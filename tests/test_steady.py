@@ -198,3 +198,16 @@ def test_broyden_updates_agree_with_the_reference_newton(steady, newton_referenc
     np.testing.assert_allclose(w, w_ref, rtol=1e-5)
     with pytest.raises(ValueError, match="updates"):
         steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16, updates="bfgs")
+
+
+def test_dask_jacobian_is_identical_to_serial(steady):
+    """Jacobian columns on a Dask LocalCluster (two worker processes): the same code path as on
+    any scheduler, the same numbers as serial, bit for bit."""
+    from vesicle.parallel import executor
+
+    P = steady.problem
+    base, flow = P.adot(steady.a)
+    serial, _ = P.jacobian(steady.a, base, flow.sigma)
+    with executor(2, "local") as dask:
+        distributed, _ = P.jacobian(steady.a, base, flow.sigma, executor=dask)
+    np.testing.assert_array_equal(distributed, serial)

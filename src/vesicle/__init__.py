@@ -2,6 +2,7 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
+from .branch import Branch, BranchPoint, SpecialPoint, branch
 from .caches import cache_info, clear_caches
 from .flows import LinearFlow
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
@@ -21,6 +22,8 @@ except PackageNotFoundError:  # running from a source tree without installation
     __version__ = "0+unknown"
 
 __all__ = [
+    "Branch",
+    "BranchPoint",
     "CriticalResult",
     "Discretisation",
     "FlowResult",
@@ -33,6 +36,7 @@ __all__ = [
     "ShapeError",
     "SolverError",
     "SolverTolerances",
+    "SpecialPoint",
     "SphereGrid",
     "StabilityResult",
     "SteadyProblem",
@@ -40,6 +44,7 @@ __all__ = [
     "__version__",
     "bending_energy",
     "bending_force",
+    "branch",
     "cache_info",
     "clear_caches",
     "critical_lambda",

@@ -201,6 +201,7 @@ def steady_tank_treading(
     chord_contraction: float = 0.7,
     progress=None,
     updates: str = "broyden",
+    guess: np.ndarray | None = None,
 ) -> SteadyResult:
     """Newton–Raphson for the steady tank-treading shape (SPEC §8).
 
@@ -228,6 +229,9 @@ def steady_tank_treading(
         Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
     chord_contraction : float
         Largest residual ratio accepted from a step on a reused Jacobian (see ``initial``).
+    guess : array, optional
+        Start coefficients (a predictor) that replace those of ``initial``, whose multipliers
+        and Jacobian are still used (continuation along a branch).
     updates : {"broyden", "none"}
         ``"broyden"`` (default): once a Newton step on a Jacobian formed by differences has
         contracted the residual by ``chord_contraction``, that Jacobian is reused for the
@@ -249,6 +253,11 @@ def steady_tank_treading(
     problem = SteadyProblem(physics, discretisation, solver_tolerances or NEWTON_TOLERANCES)
     newton = _Newton(problem, executor, chord_contraction, progress, updates)
     newton.start(initial)
+    if guess is not None:
+        guess = np.asarray(guess, float)
+        if guess.shape != newton.a.shape:
+            raise ValueError(f"guess must have {newton.a.size} coefficients, got {guess.shape}")
+        newton.a = guess.copy()
     converged = newton.iterate(tolerance, int(max_iterations))
     result = newton.result(converged)
     if not converged:

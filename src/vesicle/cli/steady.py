@@ -3,22 +3,34 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import nullcontext
+from pathlib import Path
 
 import click
 
+from ..branch import branch, parse_values
+from ..parallel import executor
+from ..parameters import Physics
 from ..stability import critical_lambda, stability
 from ..steady import UPDATES, NewtonError, steady_tank_treading
 from .base import fail, main
 from .options import discretisation_options, make_discretisation, make_physics, physics_options
 
 
-def _executor(workers: int):
+def _executor(workers: int, scheduler: str | None):
     if workers < 1:
         fail("--workers must be at least 1")
-    return nullcontext(None) if workers == 1 else ProcessPoolExecutor(workers)
+    return executor(workers, scheduler)
+
+
+_SCHEDULER = click.option(
+    "--scheduler",
+    default=None,
+    metavar="ADDRESS",
+    help="Run the Jacobian columns on Dask: 'local' (a LocalCluster of --workers processes) "
+    "or a scheduler address (tcp://host:port).",
+)
 
 
 def _echo_progress(info: dict) -> None:
@@ -56,12 +68,15 @@ _UPDATES = click.option(
 @click.option(
     "--workers", type=int, default=1, show_default=True, help="Processes for the Jacobian columns."
 )
+@_SCHEDULER
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def tt(with_stability, modes, max_iterations, updates, workers, as_json, **options) -> None:
+def tt(
+    with_stability, modes, max_iterations, updates, workers, scheduler, as_json, **options
+) -> None:
     """Steady tank-treading shape by Newton (and its linear stability)."""
     try:
         physics, disc = make_physics(options), make_discretisation(options)
-        with _executor(workers) as pool:
+        with _executor(workers, scheduler) as pool:
             r = steady_tank_treading(
                 physics,
                 disc,
@@ -71,7 +86,7 @@ def tt(with_stability, modes, max_iterations, updates, workers, as_json, **optio
                 updates=updates,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
-    except (ValueError, TypeError, NewtonError) as err:
+    except (ValueError, TypeError, NewtonError, OSError) as err:
         fail(str(err))
     out = {
         "v": physics.v,
@@ -119,12 +134,13 @@ def tt(with_stability, modes, max_iterations, updates, workers, as_json, **optio
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
 @_MAX_ITERATIONS
 @click.option("--workers", type=int, default=1, show_default=True)
+@_SCHEDULER
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def critical(lam0, step, xtol, max_iterations, workers, as_json, **options) -> None:
+def critical(lam0, step, xtol, max_iterations, workers, scheduler, as_json, **options) -> None:
     """Critical viscosity ratio where steady tank-treading loses stability."""
     try:
         physics, disc = make_physics(options), make_discretisation(options)
-        with _executor(workers) as pool:
+        with _executor(workers, scheduler) as pool:
             c = critical_lambda(
                 physics,
                 disc,
@@ -135,7 +151,7 @@ def critical(lam0, step, xtol, max_iterations, workers, as_json, **options) -> N
                 progress=_echo_progress,
                 max_iterations=max_iterations,
             )
-    except (ValueError, TypeError, NewtonError, RuntimeError) as err:
+    except (ValueError, TypeError, NewtonError, RuntimeError, OSError) as err:
         fail(str(err))
     _print(
         {
@@ -162,3 +178,104 @@ def _print(out: dict, as_json: bool) -> None:
         if key not in ("eigenvalues", "residual_history", "history"):
             click.echo(f"{key:<18} {value}")
     sys.stdout.flush()
+
+
+def _branch_parameters(texts: dict[str, str], step: float | None):
+    """The one varied parameter (a range or list) and the fixed ones (numbers)."""
+    varied = [k for k, t in texts.items() if any(c in str(t) for c in ":,")]
+    if len(varied) != 1:
+        fail(
+            "give exactly one of --lam, --chi, --v as a range (START:STOP[:STEP]) or a comma "
+            f"list; got {'none' if not varied else ', '.join('--' + k for k in varied)}"
+        )
+    name = varied[0]
+    try:
+        values = parse_values(texts[name], step)
+        fixed = {k: float(t) for k, t in texts.items() if k != name}
+    except ValueError as err:
+        fail(str(err))
+    return name, values, fixed
+
+
+@main.command("branch")
+@click.option(
+    "--v",
+    "v",
+    default=str(Physics().v),
+    show_default=True,
+    help="Reduced volume (or a range/list to vary it).",
+)
+@click.option(
+    "--lam",
+    default=str(Physics().lam),
+    show_default=True,
+    help="Viscosity ratio (or a range/list, e.g. 1:9 or 1,2,4,8).",
+)
+@click.option(
+    "--chi", default=str(Physics().chi), show_default=True, help="Shear rate (or a range/list)."
+)
+@physics_options(("flow",))
+@click.option("--step", type=float, default=None, help="Step of a START:STOP range [default: 1].")
+@discretisation_options()
+@click.option(
+    "--xtol",
+    type=float,
+    default=1e-3,
+    show_default=True,
+    help="Tolerance of the special points (absolute in lam, relative in chi and v).",
+)
+@click.option(
+    "--locate/--no-locate",
+    default=True,
+    show_default=True,
+    help="Locate stability changes between points.",
+)
+@click.option("--workers", type=int, default=1, show_default=True)
+@_SCHEDULER
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the branch as JSON to this file.",
+)
+@click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+def branch_command(v, lam, chi, step, xtol, locate, workers, scheduler, out, as_json,
+                   **options) -> None:  # fmt: skip
+    """Continue steady tank-treading in lam, chi or v, with its stability and special points."""
+    name, values, fixed = _branch_parameters({"v": v, "lam": lam, "chi": chi}, step)
+    try:
+        physics = make_physics(options, **{**fixed, name: values[0]})
+        disc = make_discretisation(options)
+        for x in values:
+            physics.replace(**{name: x})
+        if out is not None:
+            _writable(Path(out))
+        with _executor(workers, scheduler) as pool:
+            b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
+                       progress=_echo_progress)  # fmt: skip
+    except (ValueError, TypeError, NewtonError, OSError) as err:
+        fail(str(err))
+    result = b.to_dict()
+    if out is not None:
+        tmp = Path(str(out) + ".tmp")
+        tmp.write_text(json.dumps(result, indent=1))
+        tmp.replace(out)
+    if as_json:
+        click.echo(json.dumps(result))
+        return
+    for p in result["points"]:
+        click.echo(
+            f"{name}={p[name]:<10.6g} psi={p['psi']:+.5f} D={p['D']:.5f} S_xz={p['S_xz']:.5f} "
+            f"omega=({p['omega_R']:.5g}, {p['omega_I']:+.5g}) unstable={p['n_unstable']}"
+        )
+    for s in result["special_points"]:
+        click.echo(f"special point: {s['type']} at {name} = {s[name]:.6g}, omega_R = "
+                   f"{s['omega_R']:.4g} ({'located' if s['located'] else 'estimate'})")  # fmt: skip
+    if b.stopped:
+        click.echo(f"stopped: {b.stopped}", err=True)
+
+
+def _writable(path: Path) -> None:
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
+        fail(f"cannot write {path}: the folder {folder} does not exist or is not writable")

@@ -1,0 +1,355 @@
+"""Branches of steady tank-treading states in one parameter, with their stability (SPEC §16).
+
+:func:`branch` continues the steady TT state in ``lam``, ``chi`` or ``v`` through the values asked
+for: a secant predictor from the last two points, the Newton corrector of
+:func:`vesicle.steady.steady_tank_treading` started from the neighbour's Jacobian (chord and
+Broyden steps, one solve each), and step control (a failed step is halved, the values asked for
+are still the ones reported).  Every point carries its stability analysis (SPEC §9).
+
+Special points, where the leading eigenvalue crosses ``omega_I = 0`` between two points, are
+located on the branch by the secant/Brent method on ``omega_I`` (each evaluation a corrector
+solve from the nearest point and a stability analysis) to ``xtol``, with their type: ``"hopf"``
+(a complex pair, ``omega_R != 0``: the branch continues, the TT state is unstable beyond) or
+``"saddle-node"`` (a real eigenvalue).  Near a fold (SPEC §16) the branch turns back: the
+corrector fails as the step is refined towards it; the tracer then stops there, says so, and
+records a ``"fold"`` special point estimated from the square-root law
+``omega_I^2 ~ (lam_fold - lam)`` of the real eigenvalue along the last points (``located`` is
+then false: pseudo-arclength continuation past folds is the next step of issue 13).
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .parameters import Discretisation, Physics
+from .stability import StabilityResult, stability
+from .steady import NewtonError, SteadyResult, steady_tank_treading
+from .surface import ShapeError
+
+__all__ = ["PARAMETERS", "Branch", "BranchPoint", "SpecialPoint", "branch", "parse_values"]
+
+log = logging.getLogger(__name__)
+
+#: The parameters a branch may vary.
+PARAMETERS = ("lam", "chi", "v")
+
+#: Leading eigenvalues stored per point.
+LEADING = 6
+
+#: |omega_R| below which the most unstable mode counts as real (saddle-node, not Hopf).
+REAL_TOLERANCE = 1e-2
+
+
+@dataclass(frozen=True, eq=False)
+class BranchPoint:
+    """One steady state of a branch with its stability."""
+
+    physics: Physics
+    steady: SteadyResult
+    omega: np.ndarray  # (k, 2) leading (omega_R, omega_I), most unstable first
+    requested: bool  # one of the values asked for (else a refinement step)
+
+    @property
+    def n_unstable(self) -> int:
+        """Unstable modes, a complex pair counted twice."""
+        return int(np.sum(self.omega[:, 1] > 0))
+
+    @property
+    def oscillatory(self) -> bool:
+        """Whether an unstable mode oscillates (a complex pair)."""
+        unstable = self.omega[:, 1] > 0
+        return bool(np.any(np.abs(self.omega[unstable, 0]) > REAL_TOLERANCE))
+
+    @property
+    def most_unstable(self) -> tuple[float, float]:
+        return float(abs(self.omega[0, 0])), float(self.omega[0, 1])
+
+    def to_dict(self) -> dict:
+        r, p = self.steady, self.physics
+        w_r, w_i = self.most_unstable
+        return {
+            "lam": p.lam, "chi": p.chi, "v": p.v,
+            "psi": r.psi, "D": r.D, "axes": r.axes.tolist(),
+            **r.stress.summary(),
+            "omega_R": w_r, "omega_I": w_i,
+            "eigenvalues": self.omega.tolist(),
+            "n_unstable": self.n_unstable, "oscillatory": self.oscillatory,
+            "newton_iterations": r.newton_iterations, "solves": r.solves,
+            "residual": r.residual, "requested": self.requested,
+        }  # fmt: skip
+
+
+@dataclass(frozen=True)
+class SpecialPoint:
+    """Where the branch loses (or gains) stability, or folds."""
+
+    kind: str  # "hopf", "saddle-node" or "fold"
+    parameter: str
+    value: float
+    omega_R: float
+    located: bool  # to xtol on the branch (False: an estimate, see the module docstring)
+    bracket: tuple[float, float]
+
+    def to_dict(self) -> dict:
+        return {
+            "type": self.kind,
+            self.parameter: self.value,
+            "omega_R": self.omega_R,
+            "located": self.located,
+            "bracket": list(self.bracket),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Branch:
+    """Points in the order continued, the special points found between them, and why the
+    branch ended early (``None`` if it reached every value asked for)."""
+
+    parameter: str
+    points: list[BranchPoint]
+    special_points: list[SpecialPoint]
+    discretisation: Discretisation
+    stopped: str | None = None
+    seconds: float = 0.0
+
+    def to_dict(self, all_points: bool = False) -> dict:
+        """JSON-able: the points asked for (all with ``all_points``) and the special points."""
+        pts = [p for p in self.points if all_points or p.requested]
+        return {
+            "parameter": self.parameter,
+            "degree": self.discretisation.degree,
+            "grid": self.discretisation.grid,
+            "points": [p.to_dict() for p in pts],
+            "special_points": [s.to_dict() for s in self.special_points],
+            "stopped": self.stopped,
+            "seconds": self.seconds,
+        }
+
+
+def parse_values(text: str, step: float | None = None) -> list[float]:
+    """``"1:9"`` (with ``step``, default 1), ``"1:9:0.5"`` or ``"1,2,4,8"`` as a list."""
+    text = str(text).strip()
+    try:
+        if ":" in text:
+            parts = [float(x) for x in text.split(":")]
+            if len(parts) == 3:
+                start, stop, step = parts
+            elif len(parts) == 2:
+                start, stop = parts
+                step = 1.0 if step is None else float(step)
+            else:
+                raise ValueError
+            if not step > 0 or not np.isfinite(start + stop + step) or stop <= start:
+                raise ValueError
+            n = int(np.floor((stop - start) / step + 1e-9))
+            values = [start + k * step for k in range(n + 1)]
+            if abs(values[-1] - stop) > 1e-9 * max(1.0, abs(stop)):
+                values.append(stop)
+            return values
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(
+            f"cannot read the values {text!r}: use START:STOP (with a step), START:STOP:STEP "
+            "or a comma list"
+        ) from None
+    if not values or not all(np.isfinite(values)):
+        raise ValueError(f"no finite values in {text!r}")
+    return values
+
+
+def _analyse(steady: SteadyResult, requested: bool) -> BranchPoint:
+    s: StabilityResult = stability(steady)
+    return BranchPoint(steady.physics, steady, s.omega[:LEADING].copy(), requested)
+
+
+class _Tracer:
+    """The continuation's state: points so far and the corrector."""
+
+    def __init__(self, physics, discretisation, parameter, executor, progress, max_halvings):
+        self.physics, self.disc, self.parameter = physics, discretisation, parameter
+        self.executor, self.progress = executor, progress
+        self.max_halvings = max_halvings
+        self.points: list[BranchPoint] = []
+
+    def at(self, value: float) -> Physics:
+        return self.physics.replace(**{self.parameter: float(value)})
+
+    def value(self, point: BranchPoint) -> float:
+        return float(getattr(point.physics, self.parameter))
+
+    def correct(self, value: float, requested: bool = True) -> BranchPoint:
+        """A steady state at ``value`` from the nearest point (secant predictor), analysed."""
+        start, guess = None, None
+        if self.points:
+            order = sorted(self.points, key=lambda p: abs(self.value(p) - value))
+            start = order[0].steady
+            if len(order) > 1:
+                p0, p1 = order[1], order[0]
+                v0, v1 = self.value(p0), self.value(p1)
+                if v1 != v0:  # secant predictor in the basis coordinates
+                    guess = p1.steady.a + (p1.steady.a - p0.steady.a) * (value - v1) / (v1 - v0)
+        steady = steady_tank_treading(
+            self.at(value), self.disc, initial=start, guess=guess, executor=self.executor
+        )
+        point = _analyse(steady, requested)
+        self.points.append(point)
+        w_r, w_i = point.most_unstable
+        log.info(
+            "%s = %.6g: psi %.4f, omega (%.4g, %.4g)", self.parameter, value, steady.psi, w_r, w_i
+        )
+        if self.progress is not None:
+            self.progress({self.parameter: value, "psi": steady.psi, "omega_R": w_r,
+                           "omega_I": w_i, "solves": steady.solves})  # fmt: skip
+        return point
+
+    def step_to(self, value: float) -> BranchPoint:
+        """Reach ``value`` from the last point, halving failed steps (refinement points)."""
+        last = self.value(self.points[-1])
+        target, halvings = value, 0
+        while True:
+            try:
+                point = self.correct(target, requested=target == value)
+            except (NewtonError, ShapeError) as err:
+                if halvings >= self.max_halvings:
+                    raise _Stop(target, last, err) from err
+                halvings += 1
+                target = last + 0.5 * (target - last)
+                log.info("step failed (%s); trying %s = %.6g", err, self.parameter, target)
+                continue
+            if target == value:
+                return point
+            last, target, halvings = target, value, 0
+
+
+class _Stop(Exception):
+    def __init__(self, target: float, last: float, cause: Exception):
+        super().__init__(str(cause))
+        self.target, self.last, self.cause = target, last, cause
+
+
+def branch(
+    physics: Physics,
+    discretisation: Discretisation | None = None,
+    parameter: str = "lam",
+    values: Sequence[float] | str | None = None,
+    *,
+    step: float | None = None,
+    start: SteadyResult | None = None,
+    locate: bool = True,
+    xtol: float = 1e-3,
+    max_halvings: int = 4,
+    executor: Executor | None = None,
+    progress: Callable[[dict], None] | None = None,
+) -> Branch:
+    """Continue the steady TT state of ``physics`` in ``parameter`` through ``values``.
+
+    Parameters
+    ----------
+    physics, discretisation : Physics, Discretisation
+        The fixed parameters (``physics``' own value of ``parameter`` is not used).
+    parameter : {"lam", "chi", "v"}
+    values : sequence of float or str
+        The values to report, in the order to continue (``"1:9"`` with ``step``, ``"1:9:0.5"``
+        or ``"1,2,4"`` also accepted).
+    start : SteadyResult, optional
+        A converged state to start from (else Newton from the default start at the first value).
+    locate : bool
+        Locate special points between neighbouring points to ``xtol`` (relative for ``v`` and
+        ``chi``, absolute for ``lam``; see :class:`SpecialPoint`).
+    max_halvings : int
+        Halvings of a failed step before the branch stops (at a fold, typically).
+    executor, progress
+        Jacobian columns' executor; a callable given each point's summary.
+    """
+    if parameter not in PARAMETERS:
+        raise ValueError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
+    if isinstance(values, str):
+        values = parse_values(values, step)
+    if values is None or len(values) == 0:
+        raise ValueError("give the values of the branch parameter")
+    values = [float(x) for x in values]
+    for x in values:  # every value is a valid Physics, checked before any work
+        physics.replace(**{parameter: x})
+    if not (np.isfinite(xtol) and xtol > 0):
+        raise ValueError(f"xtol must be positive, got {xtol}")
+    disc = discretisation if discretisation is not None else Discretisation()
+    t0 = time.perf_counter()
+    tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings))
+    stopped = None
+    if start is not None:
+        tracer.points.append(_analyse(start, requested=False))
+        tracer.step_to(values[0])
+    else:
+        tracer.correct(values[0])
+    try:
+        for value in values[1:]:
+            tracer.step_to(value)
+    except _Stop as stop:
+        stopped = (
+            f"no steady state found beyond {parameter} = {stop.last:.6g} (towards "
+            f"{stop.target:.6g}, after {max_halvings} halvings): {stop.cause}"
+        )
+        log.warning("branch stopped: %s", stopped)
+    specials = _special_points(tracer, locate, xtol, stopped is not None)
+    return Branch(parameter, tracer.points, specials, disc, stopped, time.perf_counter() - t0)
+
+
+def _special_points(tracer: _Tracer, locate: bool, xtol: float, stopped: bool) -> list:
+    pts = sorted(list(tracer.points), key=tracer.value)
+    if tracer.points and tracer.value(tracer.points[-1]) < tracer.value(tracer.points[0]):
+        pts = pts[::-1]  # in the direction continued
+    found = []
+    for p0, p1 in itertools.pairwise(pts):
+        g0, g1 = p0.most_unstable[1], p1.most_unstable[1]
+        if g0 * g1 > 0 or g0 == g1:
+            continue
+        found.append(_locate(tracer, p0, p1, locate, xtol))
+    if stopped and len(tracer.points) >= 3:
+        fold = _fold_estimate(tracer)
+        if fold is not None:
+            found.append(fold)
+    return found
+
+
+def _locate(tracer: _Tracer, p0: BranchPoint, p1: BranchPoint, locate: bool, xtol: float):
+    x0, x1 = tracer.value(p0), tracer.value(p1)
+    w_r = 0.5 * (p0.most_unstable[0] + p1.most_unstable[0])
+    if locate:
+
+        def growth(x):
+            for p in tracer.points:  # Brent evaluates the bracket's ends first: reuse them
+                if tracer.value(p) == x:
+                    return p.most_unstable[1]
+            return tracer.correct(x, requested=False).most_unstable[1]
+
+        tol = xtol if tracer.parameter == "lam" else xtol * abs(x0)
+        x = brentq(growth, min(x0, x1), max(x0, x1), xtol=tol)
+        nearest = min(tracer.points, key=lambda p: abs(tracer.value(p) - x))
+        w_r = nearest.most_unstable[0]
+    else:
+        g0, g1 = p0.most_unstable[1], p1.most_unstable[1]
+        x = x0 - g0 * (x1 - x0) / (g1 - g0)
+    kind = "hopf" if w_r > REAL_TOLERANCE else "saddle-node"
+    return SpecialPoint(kind, tracer.parameter, float(x), float(w_r), locate, (x0, x1))
+
+
+def _fold_estimate(tracer: _Tracer) -> SpecialPoint | None:
+    """The fold from the square-root law of a real leading eigenvalue over the last points."""
+    last = tracer.points[-3:]
+    if any(p.most_unstable[0] > REAL_TOLERANCE for p in last):
+        return None
+    x = np.array([tracer.value(p) for p in last])
+    g2 = np.array([p.most_unstable[1] ** 2 for p in last])
+    slope, intercept = np.polyfit(x, g2, 1)
+    if slope == 0:
+        return None
+    fold = -intercept / slope
+    return SpecialPoint("fold", tracer.parameter, float(fold), 0.0, False, (x[-1], fold))

@@ -1,0 +1,59 @@
+"""Executors for independent evaluations (Jacobian columns now, sweep points later).
+
+Library functions take any :class:`concurrent.futures.Executor` (``executor=``) and map
+module-level functions over it, so results do not depend on where they ran.  :func:`executor`
+makes one from command-line choices:
+
+- ``workers = 1`` and no scheduler: ``None`` (serial);
+- ``workers > 1``: a local process pool;
+- ``scheduler = "local"``: a Dask ``LocalCluster`` of ``workers`` processes with one thread each
+  (BLAS stays on one thread per process), started here and closed on exit;
+- ``scheduler = "tcp://host:port"``: an existing Dask scheduler (e.g. one started by
+  dask-jobqueue on SLURM/PBS, see docs/architecture.md); ``workers`` is then the cluster's
+  business.
+
+A Dask client's executor is a ``concurrent.futures.Executor``; the code path is the same on a
+laptop and on a cluster.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterator
+from concurrent.futures import Executor, ProcessPoolExecutor
+from contextlib import contextmanager
+
+__all__ = ["executor"]
+
+log = logging.getLogger(__name__)
+
+
+@contextmanager
+def executor(workers: int = 1, scheduler: str | None = None) -> Iterator[Executor | None]:
+    """An executor for ``workers`` local processes or a Dask ``scheduler`` (see module doc)."""
+    if int(workers) < 1:
+        raise ValueError(f"workers must be at least 1, got {workers}")
+    if scheduler is None:
+        if workers == 1:
+            yield None
+            return
+        with ProcessPoolExecutor(int(workers)) as pool:
+            yield pool
+        return
+    # distributed is imported only when asked for: it costs ~1 s at start-up
+    from distributed import Client, LocalCluster
+
+    if scheduler == "local":
+        cluster = LocalCluster(
+            n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        log.info("started a Dask LocalCluster of %d workers", workers)
+        try:
+            with Client(cluster) as client:
+                yield client.get_executor()
+        finally:
+            cluster.close()
+        return
+    with Client(scheduler) as client:
+        log.info("connected to the Dask scheduler at %s", scheduler)
+        yield client.get_executor()

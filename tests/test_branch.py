@@ -1,0 +1,102 @@
+"""Branches of steady states with their stability and special points (issue 13, part 1)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import vesicle as vs
+from vesicle.branch import branch, parse_values
+from vesicle.cli import main
+
+
+@pytest.fixture(scope="module")
+def hopf_branch():
+    """v = 0.95, chi = 1, N = 4 on 16 x 32 through lambda_c = 8.3371 (the bracketing search
+    `critical_lambda` at xtol 1e-3, bracket [8.3366, 8.3380]; Hopf, omega_R = 0.387)."""
+    p = vs.Physics(v=0.95, chi=1.0)
+    return branch(p, vs.Discretisation(16, 4), "lam", [8.0, 8.2, 8.4, 8.6], xtol=1e-3)
+
+
+def test_branch_reports_the_values_asked_for_with_their_stability(hopf_branch):
+    pts = [p for p in hopf_branch.points if p.requested]
+    assert [p.physics.lam for p in pts] == [8.0, 8.2, 8.4, 8.6]
+    assert [p.n_unstable for p in pts] == [0, 0, 2, 2]  # a complex pair beyond lambda_c
+    assert [p.oscillatory for p in pts] == [False, False, True, True]
+    assert all(p.steady.residual < 1e-8 for p in pts)
+    psi = [p.steady.psi for p in pts]
+    assert np.all(np.diff(psi) < 0)  # psi falls with lam (SPEC §10)
+    assert hopf_branch.stopped is None
+
+
+def test_hopf_point_is_located_where_the_bracketing_search_puts_it(hopf_branch):
+    (hopf,) = hopf_branch.special_points
+    assert hopf.kind == "hopf" and hopf.located and hopf.bracket == (8.2, 8.4)
+    assert hopf.value == pytest.approx(8.3371, abs=2e-3)  # both to xtol = 1e-3
+    assert hopf.omega_R == pytest.approx(0.387, rel=0.02)
+
+
+def test_branch_json_has_the_issue_keys(hopf_branch):
+    out = json.loads(json.dumps(hopf_branch.to_dict()))
+    keys = {"lam", "chi", "v", "psi", "D", "axes", "S_xz", "N1", "N2", "omega_R", "omega_I",
+            "n_unstable"}  # fmt: skip
+    assert all(keys <= set(p) for p in out["points"]) and len(out["points"]) == 4
+    assert out["special_points"][0]["type"] == "hopf"
+
+
+@pytest.mark.parametrize(
+    "text, step, expected",
+    [("1:3", None, [1.0, 2.0, 3.0]), ("1:2", 0.4, [1.0, 1.4, 1.8, 2.0]),
+     ("0.2,1,6", None, [0.2, 1.0, 6.0]), ("1:2:0.5", None, [1.0, 1.5, 2.0])],
+)  # fmt: skip
+def test_parse_values(text, step, expected):
+    np.testing.assert_allclose(parse_values(text, step), expected)
+
+
+@pytest.mark.parametrize("text", ["3:1", "1:x", "", "1:2:0", "nan,1"])
+def test_parse_values_refuses_bad_ranges(text):
+    with pytest.raises(ValueError):
+        parse_values(text)
+
+
+def test_branch_refuses_bad_input_before_any_work():
+    p = vs.Physics()
+    with pytest.raises(ValueError, match="parameter"):
+        branch(p, parameter="kappa", values=[1.0])
+    with pytest.raises(ValueError, match="lam"):
+        branch(p, parameter="lam", values=[1.0, -2.0])
+    r = CliRunner().invoke(main, ["branch", "--lam", "1:3", "--chi", "1,2"])
+    assert r.exit_code != 0 and "exactly one" in r.output
+    r = CliRunner().invoke(main, ["branch", "--lam", "1:3", "--v", "1.5"])
+    assert r.exit_code != 0 and "reduced volume" in r.output and "Traceback" not in r.output
+
+
+def test_branch_command_json(tmp_path):
+    out = tmp_path / "b.json"
+    r = CliRunner().invoke(main, ["branch", "--lam", "1,2", "--degree", "2", "--grid", "12",
+                                  "--out", str(out), "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    result = json.loads(r.output.strip().splitlines()[-1])
+    assert [p["lam"] for p in result["points"]] == [1.0, 2.0]
+    assert json.loads(out.read_text()) == result
+
+
+def test_fold_estimate_follows_the_square_root_law():
+    """Near a saddle-node the real leading eigenvalue goes like -sqrt(c (lam_f - lam)) (SPEC §16):
+    the estimate from the last three points of a model branch is lam_f."""
+    from vesicle.branch import _fold_estimate, _Tracer
+
+    tracer = _Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4)
+    for lam in (5.0, 5.5, 5.8):
+        omega = np.array([[0.0, -np.sqrt(0.03 * (6.1 - lam))], [1.0, -1.0]])
+        tracer.points.append(vs.BranchPoint(vs.Physics(lam=lam, chi=0.2), None, omega, True))
+    fold = _fold_estimate(tracer)
+    assert fold.kind == "fold" and not fold.located
+    assert fold.value == pytest.approx(6.1, rel=1e-12)
+    # a complex leading pair is not a fold
+    tracer.points[-1] = vs.BranchPoint(vs.Physics(lam=5.8, chi=0.2), None,
+                                       np.array([[0.4, -0.01]]), True)  # fmt: skip
+    assert _fold_estimate(tracer) is None
