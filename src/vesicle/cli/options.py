@@ -74,3 +74,45 @@ def make_discretisation(options: dict) -> Discretisation:
     if "threads" in options:
         values["workers"] = options.pop("threads")
     return Discretisation(**values)
+
+
+#: Command-line option -> (config table, key) for the options the tables cover.
+CONFIG_KEYS = {
+    "v": ("physics", "v"), "lam": ("physics", "lam"), "chi": ("physics", "chi"),
+    "flow": ("physics", "flow"), "grid": ("discretisation", "grid"),
+    "degree": ("discretisation", "degree"), "n_rot": ("discretisation", "n_rot"),
+    "backend": ("discretisation", "backend"), "method": ("discretisation", "method"),
+    "threads": ("discretisation", "workers"), "tolerances": ("solver", "preset"),
+}  # fmt: skip
+
+
+def config_option(fn):
+    """``--config FILE.toml``: the tables of :mod:`vesicle.config`; explicit options win."""
+    return click.option(
+        "--config",
+        "config_path",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="TOML file with [physics], [discretisation], [solver] (and [run]) tables; "
+        "options given on the command line override it.",
+    )(fn)
+
+
+def apply_config(ctx: click.Context, options: dict, config: dict, extra: dict | None = None):
+    """Fill ``options`` from ``config`` where the command line did not give them; returns the
+    config's keys that no option covers (e.g. run settings without an option)."""
+    keys = {**CONFIG_KEYS, **(extra or {})}
+    covered = set()
+    for name, (section, key) in keys.items():
+        if name not in options:
+            continue
+        covered.add((section, key))
+        given = ctx.get_parameter_source(name) == click.core.ParameterSource.COMMANDLINE
+        if not given and key in config.get(section, {}):
+            options[name] = config[section][key]
+    return {
+        (section, key): value
+        for section, table in config.items()
+        for key, value in table.items()
+        if (section, key) not in covered
+    }

@@ -13,6 +13,7 @@ import click
 from tqdm import tqdm
 
 from ..analysis import summarize
+from ..config import read_config, solver_from, to_toml
 from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
 from ..io import SERIES, RunData, read_run
 from ..parameters import SolverTolerances
@@ -23,7 +24,14 @@ from ..steady import NewtonError, steady_tank_treading
 from ..surface import ShapeError
 from ..vtk import export_vtk
 from .base import fail, main
-from .options import discretisation_options, make_discretisation, make_physics, physics_options
+from .options import (
+    apply_config,
+    config_option,
+    discretisation_options,
+    make_discretisation,
+    make_physics,
+    physics_options,
+)
 
 
 def _default(name: str):
@@ -95,7 +103,7 @@ def _sigterm(*_) -> None:
 
 
 #: Options that ``--resume`` may be given with (everything else is the stored run's).
-_RESUME_OPTIONS = {"resume", "t_end", "plot", "progress", "overwrite"}
+_RESUME_OPTIONS = {"resume", "t_end", "plot", "progress", "overwrite", "write_config"}
 
 
 def _refuse_changes_on_resume(ctx: click.Context, path: str) -> None:
@@ -113,6 +121,44 @@ def _refuse_changes_on_resume(ctx: click.Context, path: str) -> None:
             f"(only --t-end). To change them, start a new run from its last state: "
             f"vesicle run --init {path} --out NEW.h5 ..."
         )
+
+
+#: Run options that the [run] table covers (option name -> key).
+_RUN_KEYS = {name: ("run", name) for name in RUN_DEFAULTS}
+
+
+def _run_parameters(ctx: click.Context, options: dict, config_path: str | None):
+    """RunParameters from the options, the config file (options given win) and the defaults."""
+    options = dict(options)
+    options.pop("out", None)
+    options["drift_control"] = not options.pop("no_drift_control")
+    rest, solver = {}, None
+    if config_path is not None:
+        config = read_config(config_path)
+        rest = apply_config(ctx, options, config, _RUN_KEYS)
+        if ctx.get_parameter_source("no_drift_control") == click.core.ParameterSource.COMMANDLINE:
+            rest.pop(("run", "drift_control"), None)
+        elif "drift_control" in config.get("run", {}):
+            options["drift_control"] = config["run"]["drift_control"]
+        given = ctx.get_parameter_source("tolerances") == click.core.ParameterSource.COMMANDLINE
+        if not given and config.get("solver"):
+            solver = solver_from(config["solver"])
+            options.pop("tolerances")
+    physics, discretisation = make_physics(options), make_discretisation(options)
+    extra = {key: value for (section, key), value in rest.items() if section == "run"}
+    if solver is not None:
+        options["solver"] = solver
+    return RunParameters(physics, discretisation, **{**options, **extra})
+
+
+def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> None:
+    try:
+        params = _run_parameters(ctx, options, config_path)
+    except (ValueError, TypeError) as err:
+        fail(str(err))
+    _check_writable(path, overwrite)
+    path.write_text(to_toml(params))
+    click.echo(f"wrote {path}", err=True)
 
 
 def _check_writable(out: Path, overwrite: bool) -> None:
@@ -224,10 +270,21 @@ def _check_writable(out: Path, overwrite: bool) -> None:
 )
 @click.option("--progress/--no-progress", default=True, show_default=True)
 @click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
+@config_option
+@click.option(
+    "--write-config",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the run's parameters (defaults, the file's and the options given) as a "
+    "commented TOML file, and stop.",
+)
 @click.pass_context
-def run(ctx, resume, plot, progress, overwrite, **options) -> None:
+def run(ctx, resume, plot, progress, overwrite, config_path, write_config, **options) -> None:
     """Time-dependent simulation of a vesicle in shear (writes an HDF5 run file)."""
     signal.signal(signal.SIGTERM, _sigterm)
+    if write_config is not None:
+        _write_config(ctx, options, config_path, Path(write_config), overwrite)
+        return
     try:
         if resume:
             _refuse_changes_on_resume(ctx, resume)
@@ -240,10 +297,8 @@ def run(ctx, resume, plot, progress, overwrite, **options) -> None:
         else:
             data, out = None, options.pop("out")
             _check_writable(Path(out), overwrite)
-            physics, discretisation = make_physics(options), make_discretisation(options)
-            options["drift_control"] = not options.pop("no_drift_control")
-            params = RunParameters(physics, discretisation, **options)
-            start = _start_shape(params.init, physics, discretisation)
+            params = _run_parameters(ctx, options, config_path)
+            start = _start_shape(params.init, params.physics, params.discretisation)
     except (ValueError, TypeError, ShapeError) as err:
         fail(str(err))
     t0 = float(data.checkpoint["t"]) if data is not None and data.checkpoint else 0.0
@@ -347,3 +402,23 @@ def export(file, vtk_dir, every) -> None:
     except OSError as err:
         fail(f"cannot write the VTK files: {err}")
     click.echo(f"wrote {len(paths) - 1} surfaces and {paths[-1]}")
+
+
+@main.command("config")
+@click.argument("file", type=click.Path(exists=True, dir_okay=False))
+@click.option("--out", type=click.Path(dir_okay=False), default=None,
+              help="Write the TOML here instead of stdout.")  # fmt: skip
+@click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
+def config_command(file, out, overwrite) -> None:
+    """A run file's parameters as a TOML configuration (repeat it with vesicle run --config)."""
+    data = _load(file)
+    try:
+        text = to_toml(load_parameters(data), title=f"parameters of {file}")
+    except (ValueError, TypeError) as err:
+        fail(f"cannot read the parameters of {file}: {err}")
+    if out is None:
+        click.echo(text, nl=False)
+        return
+    _check_writable(Path(out), overwrite)
+    Path(out).write_text(text)
+    click.echo(f"wrote {out}", err=True)

@@ -10,12 +10,20 @@ from pathlib import Path
 import click
 
 from ..branch import branch, parse_values
+from ..config import read_config
 from ..parallel import executor
 from ..parameters import Physics
 from ..stability import critical_lambda, stability
 from ..steady import UPDATES, NewtonError, steady_tank_treading
 from .base import fail, main
-from .options import discretisation_options, make_discretisation, make_physics, physics_options
+from .options import (
+    apply_config,
+    config_option,
+    discretisation_options,
+    make_discretisation,
+    make_physics,
+    physics_options,
+)
 
 
 def _executor(workers: int, scheduler: str | None):
@@ -70,11 +78,15 @@ _UPDATES = click.option(
 )
 @_SCHEDULER
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+@config_option
+@click.pass_context
 def tt(
-    with_stability, modes, max_iterations, updates, workers, scheduler, as_json, **options
-) -> None:
+    ctx, with_stability, modes, max_iterations, updates, workers, scheduler, as_json,
+    config_path, **options,
+) -> None:  # fmt: skip
     """Steady tank-treading shape by Newton (and its linear stability)."""
     try:
+        _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
         with _executor(workers, scheduler) as pool:
             r = steady_tank_treading(
@@ -136,9 +148,14 @@ def tt(
 @click.option("--workers", type=int, default=1, show_default=True)
 @_SCHEDULER
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def critical(lam0, step, xtol, max_iterations, workers, scheduler, as_json, **options) -> None:
+@config_option
+@click.pass_context
+def critical(
+    ctx, lam0, step, xtol, max_iterations, workers, scheduler, as_json, config_path, **options
+) -> None:
     """Critical viscosity ratio where steady tank-treading loses stability."""
     try:
+        _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
         with _executor(workers, scheduler) as pool:
             c = critical_lambda(
@@ -178,6 +195,17 @@ def _print(out: dict, as_json: bool) -> None:
         if key not in ("eigenvalues", "residual_history", "history"):
             click.echo(f"{key:<18} {value}")
     sys.stdout.flush()
+
+
+def _configure(ctx: click.Context, options: dict, config_path: str | None) -> None:
+    """Options from a [physics] / [discretisation] config (explicit options win)."""
+    if config_path is None:
+        return
+    config = read_config(config_path, sections=("physics", "discretisation"))
+    rest = apply_config(ctx, options, config)
+    if rest:  # keys this command has no option for (lam for critical, say)
+        keys = ", ".join(f"[{s}] {k}" for s, k in rest)
+        raise ValueError(f"{config_path}: {ctx.info_name} does not use {keys}")
 
 
 def _branch_parameters(texts: dict[str, str], step: float | None):
