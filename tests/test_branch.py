@@ -100,3 +100,21 @@ def test_fold_estimate_follows_the_square_root_law():
     tracer.points[-1] = vs.BranchPoint(vs.Physics(lam=5.8, chi=0.2), None,
                                        np.array([[0.4, -0.01]]), True)  # fmt: skip
     assert _fold_estimate(tracer) is None
+
+
+@pytest.mark.slow
+def test_a_hard_start_is_reached_by_continuation():
+    """chi = 0.2, lam = 6 (N = 4, 16 x 32): Newton from the tilted spheroid fails there (near
+    the low-shear fold, SPEC §16); `reach` continues from chi = 1 instead.  The state must be the
+    one a branch in lam from lam = 2 (where Newton converges) arrives at: psi 0.20678,
+    omega_I -0.0941 (measured both ways, 2026-12-01; 53 s and ~90 s)."""
+    from vesicle.branch import reach
+
+    p, d = vs.Physics(v=0.95, lam=6.0, chi=0.2), vs.Discretisation(16, 4)
+    with pytest.raises((vs.NewtonError, vs.ShapeError, vs.SolverError)):
+        vs.steady_tank_treading(p, d)
+    r = reach(p, d)
+    assert r.physics == p and r.residual < 1e-8
+    other = branch(p, d, "lam", [2.0, 3.0, 4.0, 5.0, 6.0], locate=False).points[-1].steady
+    np.testing.assert_allclose(r.a, other.a, atol=1e-7)
+    assert vs.stability(r).most_unstable[1] == pytest.approx(-0.0941, abs=5e-4)

@@ -30,11 +30,20 @@ import numpy as np
 from scipy.optimize import brentq
 
 from .parameters import Discretisation, Physics
+from .solver import SolverError
 from .stability import StabilityResult, stability
 from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .surface import ShapeError
 
-__all__ = ["PARAMETERS", "Branch", "BranchPoint", "SpecialPoint", "branch", "parse_values"]
+__all__ = [
+    "PARAMETERS",
+    "Branch",
+    "BranchPoint",
+    "SpecialPoint",
+    "branch",
+    "parse_values",
+    "reach",
+]
 
 log = logging.getLogger(__name__)
 
@@ -217,7 +226,7 @@ class _Tracer:
         while True:
             try:
                 point = self.correct(target, requested=target == value)
-            except (NewtonError, ShapeError) as err:
+            except (NewtonError, ShapeError, SolverError) as err:
                 if halvings >= self.max_halvings:
                     raise _Stop(target, last, err) from err
                 halvings += 1
@@ -284,11 +293,15 @@ def branch(
     t0 = time.perf_counter()
     tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings))
     stopped = None
-    if start is not None:
+    if start is None:  # the first value by Newton, or by continuation from an easier point
+        start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress)
+        requested = start.physics == tracer.at(values[0])
+        tracer.points.append(_analyse(start, requested=requested))
+        if not requested:
+            tracer.step_to(values[0])
+    else:
         tracer.points.append(_analyse(start, requested=False))
         tracer.step_to(values[0])
-    else:
-        tracer.correct(values[0])
     try:
         for value in values[1:]:
             tracer.step_to(value)
@@ -353,3 +366,63 @@ def _fold_estimate(tracer: _Tracer) -> SpecialPoint | None:
         return None
     fold = -intercept / slope
     return SpecialPoint("fold", tracer.parameter, float(fold), 0.0, False, (x[-1], fold))
+
+
+def reach(
+    physics: Physics,
+    discretisation: Discretisation | None = None,
+    *,
+    legs: int = 4,
+    executor: Executor | None = None,
+    progress: Callable[[dict], None] | None = None,
+    **newton,
+) -> SteadyResult:
+    """The steady TT state at ``physics``: Newton from the default start, or, where that fails,
+    continuation from an easier point, automatically.
+
+    The easier points are ``chi = 1`` at the same ``v`` and ``lam``, then ``lam = 1, chi = 1``
+    (Newton from the tilted spheroid converges there); the state is then continued in ``lam``
+    and in ``chi`` to the target, ``legs`` geometric steps each (halved where a step fails).
+    Every detour is logged and reported to ``progress`` (``{"continuation": text}``); if the
+    target cannot be reached the ``NewtonError`` says how far it got.
+    """
+    disc = discretisation if discretisation is not None else Discretisation()
+    try:
+        return steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
+    except (NewtonError, ShapeError, SolverError) as err:
+        first = err
+
+    def say(text: str) -> None:
+        log.warning("%s", text)
+        if progress is not None:
+            progress({"continuation": text})
+
+    start = None
+    for easy in (physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0)):
+        if easy == physics:
+            continue
+        try:
+            start = steady_tank_treading(easy, disc, executor=executor, **newton)
+            break
+        except (NewtonError, ShapeError, SolverError):
+            continue
+    if start is None:
+        raise NewtonError(
+            f"no steady TT state at lam = {physics.lam:g}, chi = {physics.chi:g}: Newton from the "
+            f"default start failed ({first}), and so did the easier starts at chi = 1"
+        )
+    say(f"Newton from the default start failed at lam = {physics.lam:g}, chi = {physics.chi:g}; "
+        f"continuing from lam = {start.lam:g}, chi = {start.chi:g}")  # fmt: skip
+    for name in ("lam", "chi"):
+        here, there = getattr(start.physics, name), getattr(physics, name)
+        if here == there:
+            continue
+        values = list(here * (there / here) ** (np.arange(1, legs + 1) / legs))
+        values[-1] = there
+        leg = branch(start.physics, disc, name, values, start=start, locate=False,
+                     executor=executor)  # fmt: skip
+        if leg.stopped:
+            raise NewtonError(f"continuation towards {name} = {there:g} stopped: {leg.stopped}")
+        start = leg.points[-1].steady
+        say(f"continued in {name} to {there:g}")
+    return start

@@ -28,6 +28,7 @@ from .flows import LinearFlow
 from .parameters import Discretisation, Physics, SolverTolerances
 from .problem import SteadyProblem
 from .rheology import ParticleStress
+from .solver import SolverError
 from .sphere.bases import FullBasis, RealBasis, SymmetricBasis
 from .sphere.rotation import rotation_matrix
 from .surface import Shape, ShapeError, spheroid_axes
@@ -337,7 +338,7 @@ class _Newton:
         for it in range(max_iterations + 1):
             try:
                 state, res = self._evaluate(sigma)
-            except ShapeError as err:
+            except (ShapeError, SolverError) as err:  # an iterate too far: no shape, or no solve
                 if previous is None:
                     raise
                 if it == max_iterations:  # report the last representable iterate

@@ -9,12 +9,13 @@ from pathlib import Path
 
 import click
 
-from ..branch import branch, parse_values
+from ..branch import branch, parse_values, reach
 from ..config import read_config
 from ..parallel import executor
 from ..parameters import Physics
+from ..solver import SolverError
 from ..stability import critical_lambda, stability
-from ..steady import UPDATES, NewtonError, steady_tank_treading
+from ..steady import UPDATES, NewtonError
 from .base import fail, main
 from .options import (
     apply_config,
@@ -89,7 +90,7 @@ def tt(
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
         with _executor(workers, scheduler) as pool:
-            r = steady_tank_treading(
+            r = reach(
                 physics,
                 disc,
                 executor=pool,
@@ -98,7 +99,7 @@ def tt(
                 updates=updates,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
-    except (ValueError, TypeError, NewtonError, OSError) as err:
+    except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
     out = {
         "v": physics.v,
@@ -168,7 +169,7 @@ def critical(
                 progress=_echo_progress,
                 max_iterations=max_iterations,
             )
-    except (ValueError, TypeError, NewtonError, RuntimeError, OSError) as err:
+    except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
     _print(
         {
@@ -281,7 +282,7 @@ def branch_command(v, lam, chi, step, xtol, locate, workers, scheduler, out, as_
         with _executor(workers, scheduler) as pool:
             b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
                        progress=_echo_progress)  # fmt: skip
-    except (ValueError, TypeError, NewtonError, OSError) as err:
+    except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
     result = b.to_dict()
     if out is not None:
