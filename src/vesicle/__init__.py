@@ -2,9 +2,15 @@
 
 from importlib.metadata import PackageNotFoundError, version
 
+try:  # first: vesicle.io records it in every file it writes
+    __version__ = version("vesicle")
+except PackageNotFoundError:  # running from a source tree without installation
+    __version__ = "0+unknown"
+
 from .branch import Branch, BranchPoint, SpecialPoint, branch
 from .caches import cache_info, clear_caches
 from .flows import LinearFlow
+from .io import open_run
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
 from .parameters import Discretisation, Physics, SolverTolerances
 from .problem import SteadyProblem
@@ -15,11 +21,6 @@ from .stability import CriticalResult, StabilityResult, critical_lambda, stabili
 from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .stokes import LayerPotentials, double_layer, single_layer
 from .surface import Shape, ShapeError
-
-try:
-    __version__ = version("vesicle")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0+unknown"
 
 __all__ = [
     "Branch",
@@ -50,6 +51,7 @@ __all__ = [
     "critical_lambda",
     "double_layer",
     "membrane_force",
+    "open_run",
     "single_layer",
     "solve_flow",
     "stability",

@@ -46,7 +46,9 @@ __all__ = [
     "SERIES",
     "RunData",
     "content_checksum",
+    "open_run",
     "read_run",
+    "series_dtype",
     "series_shape",
     "write_run",
 ]
@@ -54,31 +56,45 @@ __all__ = [
 FORMAT = "vesicle-run"
 FORMAT_VERSION = 2
 
-#: Series stored per saved step: trailing shape (``"N+1"``: one per degree) and meaning.
+#: Series stored per saved step: trailing shape (``"N+1"``: one per degree), long name, units.
+#: Lengths in units of a = sqrt(A / 4 pi), times of mu a^3 / kappa, energies of kappa; the
+#: stresses are the specific stress of SPEC §11 (dimensionless).
 SERIES = {
-    "t": ((), "time (mu a^3 / kappa)"),
-    "psi": ((), "inclination angle in the x-z plane (rad)"),
-    "D": ((), "deformation (L1 - L2) / (L1 + L2) in the x-z plane"),
-    "L": ((3,), "principal-axis lengths, descending (a)"),
-    "axes": ((3, 3), "principal axes: row k is the unit vector of axis k"),
-    "area": ((), "area (a^2)"),
-    "volume": ((), "volume (a^3)"),
-    "reduced_volume": ((), "reduced volume"),
-    "bending_energy": ((), "bending energy (kappa)"),
-    "S": ((3, 3), "specific particle stress (SPEC §11)"),
-    "S_bending": ((3, 3), "bending part S^B of S (nan unless asked for)"),
-    "S_flow": ((3, 3), "flow-resistance part S^V of S (nan unless asked for)"),
-    "S_xz": ((), "specific shear stress"),
-    "N1": ((), "first normal stress difference S_xx - S_zz (scaled by |chi|)"),
-    "N2": ((), "second normal stress difference S_zz - S_yy (scaled by |chi|)"),
-    "dt": ((), "the step that reached this time"),
-    "outer_iterations": ((), "Schur GMRES iterations of this state's solve"),
-    "inner_iterations": ((), "A_uu GMRES iterations of this state's solve"),
-    "centroid": ((3,), "volume centroid before re-centring (a)"),
-    "area_correction": ((), "total relative area restored by drift control so far"),
-    "volume_correction": ((), "total relative volume restored by drift control so far"),
-    "spectrum": (("N+1",), "modal energy E_l of the radius (SPEC (3.5))"),
+    "t": ((), "time", "mu a^3 / kappa"),
+    "psi": ((), "inclination angle in the x-z plane", "rad"),
+    "D": ((), "deformation (L1 - L2) / (L1 + L2) in the x-z plane", "1"),
+    "L": ((3,), "principal-axis lengths, descending", "a"),
+    "axes": ((3, 3), "principal axes: row k is the unit vector of axis k", "1"),
+    "area": ((), "area", "a^2"),
+    "volume": ((), "volume", "a^3"),
+    "reduced_volume": ((), "reduced volume", "1"),
+    "bending_energy": ((), "bending energy", "kappa"),
+    "S": ((3, 3), "specific particle stress (SPEC §11)", "1"),
+    "S_bending": ((3, 3), "bending part S^B of S (nan unless asked for)", "1"),
+    "S_flow": ((3, 3), "flow-resistance part S^V of S (nan unless asked for)", "1"),
+    "S_xz": ((), "specific shear stress", "1"),
+    "N1": ((), "first normal stress difference S_xx - S_zz (scaled by |chi|)", "1"),
+    "N2": ((), "second normal stress difference S_zz - S_yy (scaled by |chi|)", "1"),
+    "dt": ((), "the step that reached this time", "mu a^3 / kappa"),
+    "outer_iterations": ((), "Schur GMRES iterations of this state's solve", "1"),
+    "inner_iterations": ((), "A_uu GMRES iterations of this state's solve", "1"),
+    "centroid": ((3,), "volume centroid before re-centring", "a"),
+    "area_correction": ((), "total relative area restored by drift control so far", "1"),
+    "volume_correction": ((), "total relative volume restored by drift control so far", "1"),
+    "spectrum": (("N+1",), "modal energy E_l of the radius (SPEC (3.5))", "a^2"),
 }
+
+#: Dimension names of the series' trailing axes (netCDF dimensions of the HDF5 layout).
+_TRAILING = {(): (), (3,): ("i",), (3, 3): ("i", "j"), ("N+1",): ("l",)}
+
+
+#: Series that count (stored as integers).
+COUNTS = ("outer_iterations", "inner_iterations")
+
+
+def series_dtype(name: str) -> type:
+    """``int64`` for the counts, else ``float64``."""
+    return np.int64 if name in COUNTS else np.float64
 
 
 def series_shape(name: str, degree: int) -> tuple[int, ...]:
@@ -186,6 +202,32 @@ def _plain(value):
     return value
 
 
+def _label_series(group: h5py.Group, run: RunData) -> None:
+    """netCDF dimensions for the series (``t`` and the trailing ``i``, ``j``, ``l``) and each
+    one's ``long_name`` and ``units``: the group opens in xarray (engine h5netcdf) as is."""
+    if "t" not in group:
+        return
+    group["t"].make_scale("t")
+    degree = run.parameter("degree")
+    sizes = {"i": 3, "j": 3, "l": int(degree) + 1 if degree is not None else 0}
+    for name, size in sizes.items():
+        if size and name not in group:
+            d = group.create_dataset(name, data=np.arange(size))
+            d.attrs["vesicle_dimension"] = 1
+            d.make_scale(name)
+    for key in group:
+        ds = group[key]
+        if key in SERIES:
+            ds.attrs["long_name"] = SERIES[key][1]
+            ds.attrs["units"] = SERIES[key][2]
+        if key == "t" or "vesicle_dimension" in ds.attrs:
+            continue
+        trailing = _TRAILING.get(SERIES[key][0], ()) if key in SERIES else ()
+        for axis, dim in enumerate(("t", *trailing)):
+            if axis < ds.ndim and dim in group and group[dim].shape[0] == ds.shape[axis]:
+                ds.dims[axis].attach_scale(group[dim])
+
+
 def write_run(path: str | os.PathLike, run: RunData) -> Path:
     """Write ``run`` atomically to ``path`` (HDF5), with its :func:`content_checksum`.
 
@@ -209,6 +251,7 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
             series = f.create_group("series")
             for key, value in run.series.items():
                 series.create_dataset(key, data=np.asarray(value))
+            _label_series(series, run)
             f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
             if run.checkpoint is not None:
                 ck = f.create_group("checkpoint")
@@ -232,6 +275,33 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
     return path
 
 
+def open_run(path: str | os.PathLike):
+    """A run file's series as an :class:`xarray.Dataset`: coordinate ``t``, data variables with
+    ``long_name`` and ``units``, the shapes' radius coefficients as ``coefficients`` (``t``,
+    ``l``, ``m``; complex), and the parameters, package version and format as attributes
+    (dictionaries as JSON strings, as netCDF attributes must be)."""
+    # xarray (and pandas under it) is imported only here: it costs ~0.5 s at start-up
+    import xarray as xr
+
+    run = read_run(path)
+    t = run.series["t"]
+    data = {}
+    for key, value in run.series.items():
+        if key == "t":
+            continue
+        shape = SERIES[key][0] if key in SERIES else ()
+        dims = ("t", *_TRAILING.get(shape, tuple(f"{key}_{k}" for k in range(value.ndim - 1))))
+        attrs = {"long_name": SERIES[key][1], "units": SERIES[key][2]} if key in SERIES else {}
+        data[key] = (dims[: value.ndim], value, attrs)
+    meaning = {"long_name": "radius coefficients r_lm (SPEC §2)", "units": "a"}
+    data["coefficients"] = (("t", "l", "m"), run.coefficients, meaning)
+    attrs = {k: json.dumps(_plain(v)) if isinstance(v, dict | list) else v
+             for k, v in run.parameters.items()}  # fmt: skip
+    attrs.update({f"file_{k}": str(v) for k, v in run.attributes.items()})
+    coords = {"t": ("t", t, {"long_name": SERIES["t"][1], "units": SERIES["t"][2]})}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
 def read_run(path: str | os.PathLike) -> RunData:
     """Load a run file written by :func:`write_run`."""
     path = Path(path)
@@ -246,7 +316,11 @@ def read_run(path: str | os.PathLike) -> RunData:
             raise ValueError(f"{path} is not a vesicle run file")
         attributes = {k: _from_attr(v) for k, v in f.attrs.items()}
         parameters = {k: _from_attr(v) for k, v in f["parameters"].attrs.items()}
-        series = {k: f["series"][k][()] for k in f["series"]}
+        series = {
+            k: f["series"][k][()]
+            for k in f["series"]
+            if "vesicle_dimension" not in f["series"][k].attrs
+        }
         coefficients = f["shapes"]["coefficients"][()]
         checkpoint = None
         if "checkpoint" in f:

@@ -20,7 +20,7 @@ import numpy as np
 
 from .analysis import classify_regime, diagnose, summarize
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
-from .io import SERIES, RunData, series_shape, write_run
+from .io import SERIES, RunData, series_dtype, series_shape, write_run
 from .solver import solve_flow
 from .surface import Shape
 
@@ -42,7 +42,9 @@ def load_parameters(run: RunData) -> RunParameters:
 
 def _new_run(params: RunParameters, shape: Shape) -> RunData:
     parameters = params.to_dict()
-    series = {k: np.zeros((0, *series_shape(k, params.degree))) for k in SERIES}
+    series = {
+        k: np.zeros((0, *series_shape(k, params.degree)), dtype=series_dtype(k)) for k in SERIES
+    }
     coefficients = np.zeros((0, params.degree + 1, params.degree + 1), complex)
     return RunData(parameters, series, coefficients)
 
@@ -96,8 +98,8 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float, params: R
     if row.keys() != SERIES.keys():  # the one list of saved series is io.SERIES
         raise RuntimeError(f"saved series {sorted(row)} differ from io.SERIES")
     for key, value in row.items():
-        value = np.asarray(value, float)
         old = run.series.get(key)
+        value = np.asarray(value, old.dtype if old is not None else series_dtype(key))
         if old is None:  # a file written before this series existed
             old = np.full((run.n_saved, *value.shape), np.nan)
         run.series[key] = np.concatenate([old, value[None]])

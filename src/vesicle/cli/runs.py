@@ -45,7 +45,7 @@ _CSV_FIRST = ("t", "psi", "D", "L1", "L2", "L3", "bending_energy", "area", "volu
 
 #: The CSV columns: those, then every other scalar series of :data:`vesicle.io.SERIES`.
 CSV_COLUMNS = _CSV_FIRST + tuple(
-    name for name, (shape, _) in SERIES.items() if shape == () and name not in _CSV_FIRST
+    name for name, (shape, *_) in SERIES.items() if shape == () and name not in _CSV_FIRST
 )
 
 

@@ -1,0 +1,51 @@
+"""Run files that xarray reads (issue 18, part 2)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import xarray as xr
+
+import vesicle as vs
+from vesicle.dynamics import RunParameters
+from vesicle.io import SERIES, read_run
+from vesicle.simulation import simulate
+
+
+@pytest.fixture(scope="module")
+def run_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("out") / "r.h5"
+    simulate(RunParameters(v=0.9, lam=2.0, grid=12, degree=4, t_end=0.02, save_every=0.01),
+             out=path)  # fmt: skip
+    return path
+
+
+def test_series_open_in_xarray_with_named_dimensions_and_units(run_file):
+    ds = xr.open_dataset(run_file, group="series", engine="h5netcdf")
+    assert set(ds.sizes) == {"t", "i", "j", "l"}  # no phony_dim_N
+    assert ds.sizes["t"] == 3 and ds.sizes["l"] == 5
+    assert ds["S"].dims == ("t", "i", "j") and ds["spectrum"].dims == ("t", "l")
+    assert ds["psi"].attrs["units"] == "rad" and ds["t"].attrs["units"] == "mu a^3 / kappa"
+    assert ds["outer_iterations"].dtype.kind == "i"  # counts are integers
+    np.testing.assert_array_equal(ds["psi"].values, read_run(run_file).series["psi"])
+    ds.close()
+
+
+def test_open_run_gives_a_dataset_with_the_parameters(run_file):
+    ds = vs.open_run(run_file)
+    assert ds["t"].values.tolist() == pytest.approx([0.0, 0.01, 0.02])
+    assert ds["coefficients"].dims == ("t", "l", "m") and ds["coefficients"].dtype.kind == "c"
+    assert json.loads(ds.attrs["physics"])["lam"] == 2.0
+    assert ds.attrs["file_vesicle_version"] == vs.__version__
+    for name, (_, long_name, units) in SERIES.items():
+        if name != "t":
+            assert ds[name].attrs == {"long_name": long_name, "units": units}
+    frame = ds[["psi", "D", "S_xz"]].to_dataframe()  # and pandas
+    assert list(frame.index) == pytest.approx([0.0, 0.01, 0.02])
+
+
+def test_dimension_scales_are_not_series_and_the_checksum_holds(run_file):
+    run = read_run(run_file)  # verifies the checksum
+    assert not {"i", "j", "l"} & set(run.series)
