@@ -49,3 +49,18 @@ def test_open_run_gives_a_dataset_with_the_parameters(run_file):
 def test_dimension_scales_are_not_series_and_the_checksum_holds(run_file):
     run = read_run(run_file)  # verifies the checksum
     assert not {"i", "j", "l"} & set(run.series)
+
+
+def test_the_file_records_the_command_and_library_versions(tmp_path):
+    from click.testing import CliRunner
+
+    from vesicle.cli import main
+
+    out = tmp_path / "c.h5"
+    args = ["run", "--grid", "12", "--degree", "4", "--t-end", "0.01", "--lam", "3",
+            "--out", str(out), "--no-progress", "--no-plot"]  # fmt: skip
+    assert CliRunner().invoke(main, args).exit_code == 0
+    attrs = read_run(out).attributes
+    assert attrs["command"].startswith("main run") or attrs["command"].startswith("vesicle run")
+    assert "--lam 3.0" in attrs["command"] and "--grid 12" in attrs["command"]
+    assert attrs["numpy_version"] == np.__version__ and "scipy_version" in attrs

@@ -32,6 +32,7 @@ import os
 import shutil
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from importlib import metadata
 from pathlib import Path
 
 import h5py
@@ -228,6 +229,22 @@ def _label_series(group: h5py.Group, run: RunData) -> None:
                 ds.dims[axis].attach_scale(group[dim])
 
 
+#: Root attributes that write_run sets itself.
+_RESERVED = {"format", "format_version", "vesicle_version", "created", "updated", "checksum",
+             "numpy_version", "scipy_version", "numba_version", "h5py_version"}  # fmt: skip
+
+
+def _library_versions() -> dict[str, str]:
+    """The versions of the libraries whose numerics a result depends on."""
+    out = {"numpy_version": np.__version__, "h5py_version": h5py.__version__}
+    for name in ("scipy", "numba"):
+        try:
+            out[f"{name}_version"] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[f"{name}_version"] = "not installed"
+    return out
+
+
 def write_run(path: str | os.PathLike, run: RunData) -> Path:
     """Write ``run`` atomically to ``path`` (HDF5), with its :func:`content_checksum`.
 
@@ -245,6 +262,11 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
             f.attrs["created"] = run.attributes.get("created", now)
             f.attrs["updated"] = now
             f.attrs["checksum"] = content_checksum(run)
+            for key, value in _library_versions().items():
+                f.attrs[key] = value
+            for key, value in run.attributes.items():  # e.g. the command line that made it
+                if key not in _RESERVED:
+                    f.attrs[key] = str(value)
             params = f.create_group("parameters")
             for key, value in run.parameters.items():
                 params.attrs[key] = _attr_value(value)

@@ -128,6 +128,7 @@ def simulate(
     progress: Progress | None = None,
     start: Shape | None = None,
     resume: RunData | None = None,
+    attributes: dict | None = None,
 ) -> RunData:
     """Run the time-dependent simulation; returns the run data (also written to ``out``).
 
@@ -142,6 +143,8 @@ def simulate(
         Start shape instead of the spheroid of ``params.v`` (tilt and perturbation still apply).
     resume : RunData, optional
         A run file's content to continue from its checkpoint (``params.t_end`` may extend it).
+    attributes : dict, optional
+        Extra root attributes of the file (e.g. ``{"command": ...}``, which the CLI records).
     """
     integ = Integrator(params)
     if resume is not None:
@@ -156,6 +159,7 @@ def simulate(
     else:
         shape = initial_shape(params, start)
         run = _new_run(params, shape)
+        run.attributes.update(attributes or {})
         state = StepState(
             t=0.0,
             coefficients=shape.coefficients,

@@ -5,6 +5,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import shlex
 import signal
 import sys
 from pathlib import Path
@@ -161,6 +162,20 @@ def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> Non
     click.echo(f"wrote {path}", err=True)
 
 
+def _command_line(ctx: click.Context) -> str:
+    """The command as given: its path and the options set on the command line."""
+    parts = [ctx.command_path]
+    for name, value in ctx.params.items():
+        if ctx.get_parameter_source(name) != click.core.ParameterSource.COMMANDLINE:
+            continue
+        option = "--" + name.replace("_", "-")
+        if isinstance(value, bool):
+            parts.append(option if value or name.startswith("no_") else f"--no-{option[2:]}")
+        else:
+            parts.append(f"{option} {shlex.quote(str(value))}")
+    return " ".join(parts)
+
+
 def _check_writable(out: Path, overwrite: bool) -> None:
     """Refuse, before any work, an output the run could not write or would silently replace."""
     folder = out.parent if str(out.parent) else Path(".")
@@ -302,9 +317,13 @@ def run(ctx, resume, plot, progress, overwrite, config_path, write_config, **opt
     except (ValueError, TypeError, ShapeError) as err:
         fail(str(err))
     t0 = float(data.checkpoint["t"]) if data is not None and data.checkpoint else 0.0
+    command = _command_line(ctx)
+    if data is not None:
+        data.attributes["resumed_by"] = command
     bar = _Bar(t0, params.t_end, progress)
     try:
-        result = simulate(params, out=out, progress=bar, start=start, resume=data)
+        result = simulate(params, out=out, progress=bar, start=start, resume=data,
+                          attributes={"command": command} if data is None else None)  # fmt: skip
     except KeyboardInterrupt:
         bar.bar.close()
         click.echo(
