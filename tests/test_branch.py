@@ -92,12 +92,12 @@ def test_fold_estimate_follows_the_square_root_law():
     tracer = _Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4)
     for lam in (5.0, 5.5, 5.8):
         omega = np.array([[0.0, -np.sqrt(0.03 * (6.1 - lam))], [1.0, -1.0]])
-        tracer.points.append(vs.BranchPoint(vs.Physics(lam=lam, chi=0.2), None, omega, True))
+        tracer.add(vs.BranchPoint(vs.Physics(lam=lam, chi=0.2), None, omega, True))
     fold = _fold_estimate(tracer)
     assert fold.kind == "fold" and not fold.located
     assert fold.value == pytest.approx(6.1, rel=1e-12)
     # a complex leading pair is not a fold
-    tracer.points[-1] = vs.BranchPoint(vs.Physics(lam=5.8, chi=0.2), None,
+    tracer.path[-1] = vs.BranchPoint(vs.Physics(lam=5.8, chi=0.2), None,
                                        np.array([[0.4, -0.01]]), True)  # fmt: skip
     assert _fold_estimate(tracer) is None
 
@@ -118,3 +118,18 @@ def test_a_hard_start_is_reached_by_continuation():
     other = branch(p, d, "lam", [2.0, 3.0, 4.0, 5.0, 6.0], locate=False).points[-1].steady
     np.testing.assert_allclose(r.a, other.a, atol=1e-7)
     assert vs.stability(r).most_unstable[1] == pytest.approx(-0.0941, abs=5e-4)
+
+
+@pytest.mark.slow
+def test_pseudo_arclength_locates_the_low_shear_fold():
+    """chi = 0.2, N = 4 on 16 x 32: natural continuation in lam stops near 7.482; pseudo-arclength
+    passes the fold and locates it at lam = 7.48326 (measured 2026-12-01, approaching from the
+    saddle half; the fold is the same from either half), a saddle-node: the leading eigenvalue
+    is real and tends to zero there."""
+    p, d = vs.Physics(v=0.95, chi=0.2), vs.Discretisation(16, 4)
+    b = branch(p, d, "lam", [7.0, 7.25, 7.5], locate=False)
+    folds = [s for s in b.special_points if s.kind == "saddle-node" and s.located]
+    assert len(folds) == 1 and folds[0].value == pytest.approx(7.48326, abs=2e-3)
+    assert b.stopped is not None and "folds at" in b.stopped
+    near = [q for q in b.points if abs(q.physics.lam - folds[0].value) < 0.01]
+    assert near and all(q.most_unstable[0] < 1e-2 and abs(q.most_unstable[1]) < 0.02 for q in near)

@@ -29,10 +29,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from .continuation import ArclengthPoint, arclength_step, tangent
 from .parameters import Discretisation, Physics
+from .problem import SteadyProblem
 from .solver import SolverError
 from .stability import StabilityResult, stability
-from .steady import NewtonError, SteadyResult, steady_tank_treading
+from .steady import (
+    NEWTON_TOLERANCES,
+    NewtonError,
+    SteadyResult,
+    steady_result_at,
+    steady_tank_treading,
+)
 from .surface import ShapeError
 
 __all__ = [
@@ -52,6 +60,14 @@ PARAMETERS = ("lam", "chi", "v")
 
 #: Leading eigenvalues stored per point.
 LEADING = 6
+
+#: Newton iterations of a corrector step before the step is halved (a neighbour's Jacobian
+#: is a good start: more iterations than this mean the step is too long).
+BRANCH_ITERATIONS = 15
+
+#: A corrector result farther from the predictor than this multiple of the predictor step is
+#: on another branch (a plain solve beyond a fold lands elsewhere, SPEC §16): the step is halved.
+JUMP = 1.0
 
 #: |omega_R| below which the most unstable mode counts as real (saddle-node, not Hopf).
 REAL_TOLERANCE = 1e-2
@@ -186,7 +202,8 @@ class _Tracer:
         self.physics, self.disc, self.parameter = physics, discretisation, parameter
         self.executor, self.progress = executor, progress
         self.max_halvings = max_halvings
-        self.points: list[BranchPoint] = []
+        self.points: list[BranchPoint] = []  # every state computed (starts, location steps)
+        self.path: list[BranchPoint] = []  # the branch, in the order continued
 
     def at(self, value: float) -> Physics:
         return self.physics.replace(**{self.parameter: float(value)})
@@ -194,7 +211,13 @@ class _Tracer:
     def value(self, point: BranchPoint) -> float:
         return float(getattr(point.physics, self.parameter))
 
-    def correct(self, value: float, requested: bool = True) -> BranchPoint:
+    def add(self, point: BranchPoint, on_path: bool = True) -> BranchPoint:
+        self.points.append(point)
+        if on_path:
+            self.path.append(point)
+        return point
+
+    def correct(self, value: float, requested: bool = True, on_path: bool = True) -> BranchPoint:
         """A steady state at ``value`` from the nearest point (secant predictor), analysed."""
         start, guess = None, None
         if self.points:
@@ -206,10 +229,22 @@ class _Tracer:
                 if v1 != v0:  # secant predictor in the basis coordinates
                     guess = p1.steady.a + (p1.steady.a - p0.steady.a) * (value - v1) / (v1 - v0)
         steady = steady_tank_treading(
-            self.at(value), self.disc, initial=start, guess=guess, executor=self.executor
+            self.at(value),
+            self.disc,
+            initial=start,
+            guess=guess,
+            executor=self.executor,
+            max_iterations=BRANCH_ITERATIONS,
         )
-        point = _analyse(steady, requested)
-        self.points.append(point)
+        if guess is not None and on_path:
+            predicted = float(np.linalg.norm(guess - start.a))
+            moved = float(np.linalg.norm(steady.a - guess))
+            if moved > JUMP * predicted:  # landed on another branch (past a fold, say)
+                raise BranchJump(
+                    f"the corrector at {self.parameter} = {value:.6g} moved {moved:.2e} from the "
+                    f"predictor, more than the step itself ({predicted:.2e}): another branch"
+                )
+        point = self.add(_analyse(steady, requested), on_path)
         w_r, w_i = point.most_unstable
         log.info(
             "%s = %.6g: psi %.4f, omega (%.4g, %.4g)", self.parameter, value, steady.psi, w_r, w_i
@@ -221,12 +256,12 @@ class _Tracer:
 
     def step_to(self, value: float) -> BranchPoint:
         """Reach ``value`` from the last point, halving failed steps (refinement points)."""
-        last = self.value(self.points[-1])
+        last = self.value(self.path[-1])
         target, halvings = value, 0
         while True:
             try:
                 point = self.correct(target, requested=target == value)
-            except (NewtonError, ShapeError, SolverError) as err:
+            except (NewtonError, ShapeError, SolverError, BranchJump) as err:
                 if halvings >= self.max_halvings:
                     raise _Stop(target, last, err) from err
                 halvings += 1
@@ -236,6 +271,10 @@ class _Tracer:
             if target == value:
                 return point
             last, target, halvings = target, value, 0
+
+
+class BranchJump(RuntimeError):
+    """A corrector that converged far from its predictor: onto another branch."""
 
 
 class _Stop(Exception):
@@ -255,6 +294,8 @@ def branch(
     locate: bool = True,
     xtol: float = 1e-3,
     max_halvings: int = 4,
+    arclength: bool = True,
+    past_fold: int = 0,
     executor: Executor | None = None,
     progress: Callable[[dict], None] | None = None,
 ) -> Branch:
@@ -274,7 +315,12 @@ def branch(
         Locate special points between neighbouring points to ``xtol`` (relative for ``v`` and
         ``chi``, absolute for ``lam``; see :class:`SpecialPoint`).
     max_halvings : int
-        Halvings of a failed step before the branch stops (at a fold, typically).
+        Halvings of a failed step before natural continuation stops (at a fold, typically).
+    arclength : bool
+        Where natural continuation stops, follow the branch by pseudo-arclength from the last
+        points to locate the fold (the tangent's ``parameter`` component changes sign there).
+    past_fold : int
+        Arclength steps to take beyond the fold, on the unstable side (0: stop at the fold).
     executor, progress
         Jacobian columns' executor; a callable given each point's summary.
     """
@@ -296,11 +342,11 @@ def branch(
     if start is None:  # the first value by Newton, or by continuation from an easier point
         start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress)
         requested = start.physics == tracer.at(values[0])
-        tracer.points.append(_analyse(start, requested=requested))
+        tracer.add(_analyse(start, requested=requested))
         if not requested:
             tracer.step_to(values[0])
     else:
-        tracer.points.append(_analyse(start, requested=False))
+        tracer.add(_analyse(start, requested=False))
         tracer.step_to(values[0])
     try:
         for value in values[1:]:
@@ -311,21 +357,26 @@ def branch(
             f"{stop.target:.6g}, after {max_halvings} halvings): {stop.cause}"
         )
         log.warning("branch stopped: %s", stopped)
-    specials = _special_points(tracer, locate, xtol, stopped is not None)
-    return Branch(parameter, tracer.points, specials, disc, stopped, time.perf_counter() - t0)
+    specials = _special_points(tracer, locate, xtol, stopped is not None and not arclength)
+    if stopped is not None and arclength:
+        fold = _follow_fold(tracer, xtol, past_fold)
+        if fold is not None:
+            specials.append(fold)
+            stopped = f"{stopped}; the branch folds at {parameter} = {fold.value:.6g}"
+        elif len(tracer.path) >= 3 and (estimate := _fold_estimate(tracer)) is not None:
+            specials.append(estimate)
+    return Branch(parameter, tracer.path, specials, disc, stopped, time.perf_counter() - t0)
 
 
 def _special_points(tracer: _Tracer, locate: bool, xtol: float, stopped: bool) -> list:
-    pts = sorted(list(tracer.points), key=tracer.value)
-    if tracer.points and tracer.value(tracer.points[-1]) < tracer.value(tracer.points[0]):
-        pts = pts[::-1]  # in the direction continued
+    pts = list(tracer.path)
     found = []
     for p0, p1 in itertools.pairwise(pts):
         g0, g1 = p0.most_unstable[1], p1.most_unstable[1]
         if g0 * g1 > 0 or g0 == g1:
             continue
         found.append(_locate(tracer, p0, p1, locate, xtol))
-    if stopped and len(tracer.points) >= 3:
+    if stopped and len(tracer.path) >= 3:
         fold = _fold_estimate(tracer)
         if fold is not None:
             found.append(fold)
@@ -341,7 +392,7 @@ def _locate(tracer: _Tracer, p0: BranchPoint, p1: BranchPoint, locate: bool, xto
             for p in tracer.points:  # Brent evaluates the bracket's ends first: reuse them
                 if tracer.value(p) == x:
                     return p.most_unstable[1]
-            return tracer.correct(x, requested=False).most_unstable[1]
+            return tracer.correct(x, requested=False, on_path=False).most_unstable[1]
 
         tol = xtol if tracer.parameter == "lam" else xtol * abs(x0)
         x = brentq(growth, min(x0, x1), max(x0, x1), xtol=tol)
@@ -356,7 +407,7 @@ def _locate(tracer: _Tracer, p0: BranchPoint, p1: BranchPoint, locate: bool, xto
 
 def _fold_estimate(tracer: _Tracer) -> SpecialPoint | None:
     """The fold from the square-root law of a real leading eigenvalue over the last points."""
-    last = tracer.points[-3:]
+    last = tracer.path[-3:]
     if any(p.most_unstable[0] > REAL_TOLERANCE for p in last):
         return None
     x = np.array([tracer.value(p) for p in last])
@@ -387,10 +438,19 @@ def reach(
     target cannot be reached the ``NewtonError`` says how far it got.
     """
     disc = discretisation if discretisation is not None else Discretisation()
+    direct = None
     try:
-        return steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
+        direct = steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
     except (NewtonError, ShapeError, SolverError) as err:
         first = err
+    if direct is not None:
+        w_r, w_i = stability(direct).most_unstable
+        if not (w_i > 0 and w_r <= REAL_TOLERANCE and physics.chi != 1.0):
+            return direct
+        # a real unstable mode: possibly the saddle half of a fold (SPEC §16); the state
+        # continued from chi = 1 is the one on the branch that is stable below the fold
+        first = NewtonError(f"Newton from the default start found a state with a real unstable "
+                            f"mode (omega_I = {w_i:.3g})")  # fmt: skip
 
     def say(text: str) -> None:
         log.warning("%s", text)
@@ -407,12 +467,14 @@ def reach(
         except (NewtonError, ShapeError, SolverError):
             continue
     if start is None:
+        if direct is not None:
+            return direct
         raise NewtonError(
             f"no steady TT state at lam = {physics.lam:g}, chi = {physics.chi:g}: Newton from the "
             f"default start failed ({first}), and so did the easier starts at chi = 1"
         )
-    say(f"Newton from the default start failed at lam = {physics.lam:g}, chi = {physics.chi:g}; "
-        f"continuing from lam = {start.lam:g}, chi = {start.chi:g}")  # fmt: skip
+    say(f"{first} at lam = {physics.lam:g}, chi = {physics.chi:g}; continuing from "
+        f"lam = {start.lam:g}, chi = {start.chi:g}")  # fmt: skip
     for name in ("lam", "chi"):
         here, there = getattr(start.physics, name), getattr(physics, name)
         if here == there:
@@ -422,7 +484,112 @@ def reach(
         leg = branch(start.physics, disc, name, values, start=start, locate=False,
                      executor=executor)  # fmt: skip
         if leg.stopped:
+            if direct is not None:
+                say(f"continuation towards {name} = {there:g} stopped; keeping the state Newton "
+                    "found from the default start")  # fmt: skip
+                return direct
             raise NewtonError(f"continuation towards {name} = {there:g} stopped: {leg.stopped}")
         start = leg.points[-1].steady
         say(f"continued in {name} to {there:g}")
     return start
+
+
+def _blocks(steady: SteadyResult) -> np.ndarray:
+    """``G_y`` of the steady equations in ``y = (a, mu)`` at a converged state (SPEC §8):
+    ``[[M, -g^T], [g, 0]]`` with the central-difference ``M`` and the exact gradients ``g``."""
+    M, g = steady.jacobian, steady.gradients
+    n = M.shape[0]
+    J = np.zeros((n + 2, n + 2))
+    J[:n, :n], J[:n, n:], J[n:, :n] = M, -g.T, g
+    return J
+
+
+def _state(point: BranchPoint, parameter: str) -> np.ndarray:
+    r = point.steady
+    return np.concatenate([r.a, r.multipliers, [getattr(r.physics, parameter)]])
+
+
+class _Arclength:
+    """The steady equations as ``G(y, p)`` for :mod:`vesicle.continuation`."""
+
+    def __init__(self, tracer: _Tracer, last: BranchPoint):
+        self.tracer, self.last, self.sigma = tracer, last.steady, None
+
+    def problem(self, p: float) -> SteadyProblem:
+        return SteadyProblem(self.tracer.at(p), self.tracer.disc, NEWTON_TOLERANCES)
+
+    def residual(self, y: np.ndarray, p: float):
+        P = self.problem(p)
+        a, mu = y[:-2], y[-2:]
+        shape = P.shape(a)
+        rate, flow = P.adot(a, self.sigma)
+        self.sigma = flow.sigma
+        G, size = P.residual(shape, rate, mu, P.gradients(shape))
+        return G, size, (a, mu)
+
+    def G_p(self, steady: SteadyResult) -> np.ndarray:
+        """``dG/dp`` at a converged state by a forward difference (one solve; ``G = 0`` there
+        to the Newton tolerance, 1e-4 of the difference)."""
+        p = float(getattr(steady.physics, self.tracer.parameter))
+        dp = 1e-4 * max(1.0, abs(p))
+        if self.tracer.parameter == "v" and p + dp > 1.0:
+            dp = -dp
+        y = np.concatenate([steady.a, steady.multipliers])
+        return self.residual(y, p + dp)[0] / dp
+
+    def jacobian(self, z: np.ndarray, data):
+        """At a converged arclength point: its steady result (no Newton: at fixed parameters it
+        is singular at the fold), analysed, with the blocks for the next step."""
+        a, mu = data
+        steady = steady_result_at(self.problem(float(z[-1])), a, mu, self.tracer.executor)
+        self.last = steady
+        return _blocks(steady), self.G_p(steady), _analyse(steady, requested=False)
+
+
+def _follow_fold(tracer: _Tracer, xtol: float, past_fold: int) -> SpecialPoint | None:
+    """From the last two points, pseudo-arclength until the tangent's parameter component
+    changes sign; the fold located by the secant method on that component (see module doc)."""
+    path = tracer.path
+    if len(path) < 2 or path[-1].most_unstable[0] > REAL_TOLERANCE:
+        return None  # a complex leading pair: not a saddle-node fold
+    name = tracer.parameter
+    A = _Arclength(tracer, path[-1])
+    z0, z1 = _state(path[-2], name), _state(path[-1], name)
+    G_y, G_p = _blocks(path[-1].steady), A.G_p(path[-1].steady)
+    ds = 0.5 * float(np.linalg.norm(z1 - z0))
+    point = ArclengthPoint(z1, tangent(G_y, G_p, previous=z1 - z0), G_y, G_p, ds, path[-1])
+    log.info("natural continuation stopped: pseudo-arclength from %s = %.6g", name, z1[-1])
+    try:
+        for _ in range(16):
+            nxt = arclength_step(A.residual, A.jacobian, point, ds, 1e-8, ds / 64)
+            tracer.add(nxt.data)
+            if np.sign(nxt.tangent[-1]) != np.sign(point.tangent[-1]):
+                break
+            point = nxt
+        else:
+            return None
+    except (RuntimeError, NewtonError, ShapeError, SolverError) as err:
+        log.warning("pseudo-arclength stopped: %s", err)
+        return None
+    fold = _locate_fold(A, point, nxt, xtol)
+    beyond = nxt
+    for _ in range(past_fold):  # the unstable side, if asked
+        beyond = arclength_step(A.residual, A.jacobian, beyond, ds, 1e-8, ds / 64)
+        tracer.add(beyond.data)
+    return SpecialPoint("saddle-node", name, fold, 0.0, True, (point.z[-1], nxt.z[-1]))
+
+
+def _locate_fold(A: _Arclength, before: ArclengthPoint, after: ArclengthPoint, xtol: float):
+    """Secant in the arclength ``s`` from ``before`` on the tangent's parameter component."""
+    s0, f0 = 0.0, before.tangent[-1]
+    s1, f1 = after.ds, after.tangent[-1]
+    p_fold = 0.5 * (before.z[-1] + after.z[-1])
+    for _ in range(12):
+        s2 = s1 - f1 * (s1 - s0) / (f1 - f0) if f1 != f0 else 0.5 * (s0 + s1)
+        q = arclength_step(A.residual, A.jacobian, before, s2, 1e-8, abs(s2) / 64)
+        A.tracer.add(q.data, on_path=False)
+        previous, p_fold = p_fold, float(q.z[-1])
+        s0, f0, s1, f1 = s1, f1, s2, q.tangent[-1]
+        if abs(p_fold - previous) < xtol * (1.0 if A.tracer.parameter == "lam" else abs(p_fold)):
+            break
+    return p_fold

@@ -41,10 +41,15 @@ __all__ = [
     "SteadyResult",
     "SymmetricBasis",
     "initial_guess",
+    "steady_result_at",
     "steady_tank_treading",
 ]
 
 log = logging.getLogger(__name__)
+
+#: Newton gives up once the residual exceeds this multiple of the first one (it diverges; a
+#: start closer by continuation is needed, which is cheaper than iterating on).
+DIVERGED = 1e3
 
 #: Jacobian update strategies of the Newton iteration (see :func:`steady_tank_treading`).
 UPDATES = ("broyden", "none")
@@ -262,8 +267,9 @@ def steady_tank_treading(
     converged = newton.iterate(tolerance, int(max_iterations))
     result = newton.result(converged)
     if not converged:
+        how = "diverged after" if newton.diverged else "did not converge in"
         raise NewtonError(
-            f"Newton did not converge in {max_iterations} iterations at lam = {physics.lam:g}, "
+            f"Newton {how} {len(newton.history) - 1} iterations at lam = {physics.lam:g}, "
             f"chi = {physics.chi:g} ({newton.halved} of them halved steps that left the radial "
             f"representation): residual history "
             f"{', '.join(f'{r:.1e}' for r in newton.history)}; start closer (continuation in "
@@ -271,6 +277,22 @@ def steady_tank_treading(
             result,
         )
     return result
+
+
+def steady_result_at(
+    problem: SteadyProblem,
+    a: np.ndarray,
+    multipliers: np.ndarray,
+    executor: Executor | None = None,
+) -> SteadyResult:
+    """The :class:`SteadyResult` of a state already converged by other means (a
+    pseudo-arclength corrector, where Newton at fixed parameters is singular, at a fold): one
+    evaluation, the central-difference Jacobian and the split stress, no Newton step."""
+    newton = _Newton(problem, executor, 0.7, None, "none")
+    newton.a, newton.mult = np.asarray(a, float).copy(), np.asarray(multipliers, float).copy()
+    newton.state, res = newton._evaluate(None)
+    newton.history.append(res)
+    return newton.result(converged=True)
 
 
 class _Newton:
@@ -293,6 +315,7 @@ class _Newton:
         self.solves = 0
         self.history: list[float] = []
         self.halved = 0  # Newton steps halved to stay representable
+        self.diverged = False
 
     def start(self, initial) -> None:
         P = self.P
@@ -361,6 +384,11 @@ class _Newton:
                 self.state = state
                 if res < tolerance:
                     return True
+                if res > DIVERGED * self.history[0] or not np.isfinite(res):
+                    log.info("Newton diverges (residual %.1e from %.1e): giving up", res,
+                             self.history[0])  # fmt: skip
+                    self.diverged = True
+                    return False
                 if previous is not None and self.fresh:
                     self._adopt(self.history[-1] / self.history[-2])
                 elif previous is not None:

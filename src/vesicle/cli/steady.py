@@ -259,6 +259,20 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     show_default=True,
     help="Locate stability changes between points.",
 )
+@click.option(
+    "--arclength/--no-arclength",
+    default=True,
+    show_default=True,
+    help="Where natural continuation stops, follow the branch by pseudo-arclength to locate "
+    "the fold.",
+)
+@click.option(
+    "--past-fold",
+    type=int,
+    default=0,
+    show_default=True,
+    help="Arclength steps beyond a fold, on the unstable side.",
+)
 @click.option("--workers", type=int, default=1, show_default=True)
 @_SCHEDULER
 @click.option(
@@ -268,8 +282,8 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     help="Write the branch as JSON to this file.",
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def branch_command(v, lam, chi, step, xtol, locate, workers, scheduler, out, as_json,
-                   **options) -> None:  # fmt: skip
+def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, workers, scheduler,
+                   out, as_json, **options) -> None:  # fmt: skip
     """Continue steady tank-treading in lam, chi or v, with its stability and special points."""
     name, values, fixed = _branch_parameters({"v": v, "lam": lam, "chi": chi}, step)
     try:
@@ -281,6 +295,7 @@ def branch_command(v, lam, chi, step, xtol, locate, workers, scheduler, out, as_
             _writable(Path(out))
         with _executor(workers, scheduler) as pool:
             b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
+                       arclength=arclength, past_fold=past_fold,
                        progress=_echo_progress)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
