@@ -357,29 +357,25 @@ def branch(
             f"{stop.target:.6g}, after {max_halvings} halvings): {stop.cause}"
         )
         log.warning("branch stopped: %s", stopped)
-    specials = _special_points(tracer, locate, xtol, stopped is not None and not arclength)
-    if stopped is not None and arclength:
-        fold = _follow_fold(tracer, xtol, past_fold)
+    specials = _special_points(tracer, locate, xtol)
+    if stopped is not None:  # a fold: located by arclength, else estimated
+        fold = _follow_fold(tracer, xtol, past_fold) if arclength else None
+        if fold is not None:
+            stopped = f"{stopped}; the branch folds at {parameter} = {fold.value:.6g}"
+        elif len(tracer.path) >= 3:
+            fold = _fold_estimate(tracer)
         if fold is not None:
             specials.append(fold)
-            stopped = f"{stopped}; the branch folds at {parameter} = {fold.value:.6g}"
-        elif len(tracer.path) >= 3 and (estimate := _fold_estimate(tracer)) is not None:
-            specials.append(estimate)
     return Branch(parameter, tracer.path, specials, disc, stopped, time.perf_counter() - t0)
 
 
-def _special_points(tracer: _Tracer, locate: bool, xtol: float, stopped: bool) -> list:
-    pts = list(tracer.path)
+def _special_points(tracer: _Tracer, locate: bool, xtol: float) -> list:
+    """Where the leading omega_I changes sign between neighbours on the path."""
     found = []
-    for p0, p1 in itertools.pairwise(pts):
+    for p0, p1 in itertools.pairwise(list(tracer.path)):
         g0, g1 = p0.most_unstable[1], p1.most_unstable[1]
-        if g0 * g1 > 0 or g0 == g1:
-            continue
-        found.append(_locate(tracer, p0, p1, locate, xtol))
-    if stopped and len(tracer.path) >= 3:
-        fold = _fold_estimate(tracer)
-        if fold is not None:
-            found.append(fold)
+        if g0 * g1 <= 0 and g0 != g1:
+            found.append(_locate(tracer, p0, p1, locate, xtol))
     return found
 
 
@@ -395,10 +391,16 @@ def _locate(tracer: _Tracer, p0: BranchPoint, p1: BranchPoint, locate: bool, xto
             return tracer.correct(x, requested=False, on_path=False).most_unstable[1]
 
         tol = xtol if tracer.parameter == "lam" else xtol * abs(x0)
-        x = brentq(growth, min(x0, x1), max(x0, x1), xtol=tol)
-        nearest = min(tracer.points, key=lambda p: abs(tracer.value(p) - x))
-        w_r = nearest.most_unstable[0]
-    else:
+        try:
+            x = brentq(growth, min(x0, x1), max(x0, x1), xtol=tol)
+        except (NewtonError, ShapeError, SolverError, BranchJump) as err:
+            # next to a fold the corrector may fail between the two points: interpolate instead
+            log.warning("could not locate the crossing between %.6g and %.6g: %s", x0, x1, err)
+            locate = False
+        else:
+            nearest = min(tracer.points, key=lambda p: abs(tracer.value(p) - x))
+            w_r = nearest.most_unstable[0]
+    if not locate:
         g0, g1 = p0.most_unstable[1], p1.most_unstable[1]
         x = x0 - g0 * (x1 - x0) / (g1 - g0)
     kind = "hopf" if w_r > REAL_TOLERANCE else "saddle-node"
