@@ -21,8 +21,11 @@ def steady():
 
 @pytest.fixture(scope="module")
 def newton_reference():
-    """The same state by the reference Newton (a fresh Jacobian at every step)."""
-    return steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16, updates="none")
+    """The same state by the reference Newton (a fresh finite-difference Jacobian at every
+    step)."""
+    return steady_tank_treading(
+        0.95, 8.0, 10.0, degree=4, grid=16, updates="none", jacobian="differences"
+    )
 
 
 def test_newton_converges_quadratically(steady, newton_reference):
@@ -57,9 +60,11 @@ def test_general_modes_confirm_symmetric_ones_are_most_unstable(steady):
 
 def test_continuation_reuses_the_neighbours_jacobian(steady):
     """Started from a neighbouring SteadyResult, Newton takes chord steps on its Jacobian: the
-    same state as a fresh Newton from the same start, for a fraction of the solves."""
-    chord = steady_tank_treading(0.95, 8.2, 10.0, degree=4, grid=16, initial=steady)
-    fresh = steady_tank_treading(0.95, 8.2, 10.0, degree=4, grid=16, initial=steady.a)
+    same state as a fresh Newton from the same start, for a fraction of the solves (finite
+    differences, where a Jacobian costs one solve per column)."""
+    opts = dict(degree=4, grid=16, jacobian="differences")
+    chord = steady_tank_treading(0.95, 8.2, 10.0, initial=steady, **opts)
+    fresh = steady_tank_treading(0.95, 8.2, 10.0, initial=steady.a, **opts)
     np.testing.assert_allclose(chord.a, fresh.a, atol=1e-8)
     assert chord.residual < 1e-8
     # both end with the same central-difference stability Jacobian (2 solves per column)
@@ -88,7 +93,7 @@ def test_newton_from_too_far_reports_its_history(steady):
 
 
 def test_parallel_jacobian_is_identical_to_serial(steady):
-    P = steady.problem
+    P = steady.problem.replace(jacobian_method="differences")
     assert P.tolerances == SolverTolerances(1e-8, 1e-9)
     base, flow = P.adot(steady.a)
     serial, n = P.jacobian(steady.a, base, flow.sigma)
@@ -188,10 +193,10 @@ def test_numpy_backend_gives_the_same_eigenvalues(steady):
 
 
 def test_broyden_updates_agree_with_the_reference_newton(steady, newton_reference):
-    """The default Newton reuses its Jacobian with rank-one updates; the reference forms a
-    fresh one every step.  Both converge to 1e-8 in the residual, so the states, and the
-    eigenvalues of their central-difference Jacobians, agree to that level (measured: 8e-8 in
-    omega_R, 5e-6 in omega_I), with 46 solves instead of 62."""
+    """The default Newton reuses its (linearised) Jacobian with rank-one updates; the reference
+    forms a fresh finite-difference one every step.  Both converge to 1e-8 in the residual, so
+    the states and the eigenvalues agree to that level (measured: 8e-8 in omega_R, 2.6e-6 in
+    omega_I), with 10 solves instead of 62."""
     ref = newton_reference
     assert steady.solves < 0.8 * ref.solves and steady.jacobians < ref.jacobians
     w, w_ref = np.array(stability(steady).most_unstable), np.array(stability(ref).most_unstable)
@@ -205,7 +210,7 @@ def test_dask_jacobian_is_identical_to_serial(steady):
     any scheduler, the same numbers as serial, bit for bit."""
     from vesicle.parallel import executor
 
-    P = steady.problem
+    P = steady.problem.replace(jacobian_method="differences")  # the columns that travel
     base, flow = P.adot(steady.a)
     serial, _ = P.jacobian(steady.a, base, flow.sigma)
     with executor(2, "local") as dask:

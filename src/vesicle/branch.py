@@ -198,8 +198,11 @@ def _analyse(steady: SteadyResult, requested: bool) -> BranchPoint:
 class _Tracer:
     """The continuation's state: points so far and the corrector."""
 
-    def __init__(self, physics, discretisation, parameter, executor, progress, max_halvings):
+    def __init__(
+        self, physics, discretisation, parameter, executor, progress, max_halvings, jacobian
+    ):
         self.physics, self.disc, self.parameter = physics, discretisation, parameter
+        self.jacobian = jacobian
         self.executor, self.progress = executor, progress
         self.max_halvings = max_halvings
         self.points: list[BranchPoint] = []  # every state computed (starts, location steps)
@@ -235,6 +238,7 @@ class _Tracer:
             guess=guess,
             executor=self.executor,
             max_iterations=BRANCH_ITERATIONS,
+            jacobian=self.jacobian,
         )
         if guess is not None and on_path:
             predicted = float(np.linalg.norm(guess - start.a))
@@ -298,6 +302,7 @@ def branch(
     past_fold: int = 0,
     executor: Executor | None = None,
     progress: Callable[[dict], None] | None = None,
+    jacobian: str = "linearised",
 ) -> Branch:
     """Continue the steady TT state of ``physics`` in ``parameter`` through ``values``.
 
@@ -323,6 +328,8 @@ def branch(
         Arclength steps to take beyond the fold, on the unstable side (0: stop at the fold).
     executor, progress
         Jacobian columns' executor; a callable given each point's summary.
+    jacobian : {"linearised", "differences"}
+        How Newton and stability form their Jacobians (:func:`steady_tank_treading`).
     """
     if parameter not in PARAMETERS:
         raise ValueError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
@@ -337,10 +344,12 @@ def branch(
         raise ValueError(f"xtol must be positive, got {xtol}")
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
-    tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings))
+    tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian)
     stopped = None
     if start is None:  # the first value by Newton, or by continuation from an easier point
-        start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress)
+        start = reach(
+            tracer.at(values[0]), disc, executor=executor, progress=progress, jacobian=jacobian
+        )
         requested = start.physics == tracer.at(values[0])
         tracer.add(_analyse(start, requested=requested))
         if not requested:
@@ -484,7 +493,7 @@ def reach(
         values = list(here * (there / here) ** (np.arange(1, legs + 1) / legs))
         values[-1] = there
         leg = branch(start.physics, disc, name, values, start=start, locate=False,
-                     executor=executor)  # fmt: skip
+                     executor=executor, jacobian=newton.get("jacobian", "linearised"))  # fmt: skip
         if leg.stopped:
             if direct is not None:
                 say(f"continuation towards {name} = {there:g} stopped; keeping the state Newton "
@@ -518,7 +527,10 @@ class _Arclength:
         self.tracer, self.last, self.sigma = tracer, last.steady, None
 
     def problem(self, p: float) -> SteadyProblem:
-        return SteadyProblem(self.tracer.at(p), self.tracer.disc, NEWTON_TOLERANCES)
+        return SteadyProblem(
+            self.tracer.at(p), self.tracer.disc, NEWTON_TOLERANCES,
+            jacobian_method=self.tracer.jacobian,
+        )  # fmt: skip
 
     def residual(self, y: np.ndarray, p: float):
         P = self.problem(p)

@@ -15,20 +15,31 @@ columns travel to process pools and Dask workers as ``(problem, a)``.
 from __future__ import annotations
 
 import dataclasses
+import logging
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from functools import cached_property, partial
 
 import numpy as np
 
+from .factorised import FactorisedSystem
 from .kinematics import constraint_gradients, rate_of_change
+from .linearisation import linearised_jacobian
 from .parameters import Discretisation, Physics, SolverTolerances
-from .solver import FlowResult, solve_flow
+from .solver import SPHERE_TOLERANCE, FlowResult, VelocityTensionSolver, solve_flow, with_split
 from .sphere.bases import RealBasis, basis
 from .sphere.grid import SphereGrid
+from .stokes import LayerPotentials
 from .surface import Shape
 
-__all__ = ["SteadyProblem", "finite_difference_jacobian"]
+__all__ = ["JACOBIANS", "SteadyProblem", "finite_difference_jacobian"]
+
+#: How :meth:`SteadyProblem.jacobian` forms ``M``: ``"linearised"`` (the solve differentiated,
+#: :mod:`vesicle.linearisation`; default) or ``"differences"`` (the reference: one or two solves
+#: of perturbed shapes per column).
+JACOBIANS = ("linearised", "differences")
+
+log = logging.getLogger(__name__)
 
 #: Relative finite-difference step of the Jacobian (scaled by ``max(1, |a_00|)``).
 JACOBIAN_STEP = 1e-4
@@ -47,17 +58,24 @@ class SteadyProblem:
         :func:`vesicle.steady.steady_tank_treading`).
     modes : {"symmetric", "general"}
         The basis of the unknowns.
+    jacobian_method : {"linearised", "differences"}
+        See :data:`JACOBIANS`.
     """
 
     physics: Physics
     discretisation: Discretisation
     tolerances: SolverTolerances
     modes: str = "symmetric"
+    jacobian_method: str = "linearised"
 
     def __post_init__(self) -> None:
         basis(self.modes, self.discretisation.degree)  # validates the name and the degree
+        if self.jacobian_method not in JACOBIANS:
+            raise ValueError(
+                f"jacobian_method must be one of {JACOBIANS}, got {self.jacobian_method!r}"
+            )
 
-    def __getstate__(self) -> dict:  # the cached tables are rebuilt where the object lands
+    def __getstate__(self) -> dict:  # the cached tables and operators are rebuilt where it lands
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
 
     def __setstate__(self, state: dict) -> None:
@@ -91,7 +109,17 @@ class SteadyProblem:
 
     # ------------------------------------------------------------- equations
     def solve(self, shape: Shape, sigma0=None, split: bool = False) -> FlowResult:
-        """The velocity-tension solve of ``shape`` with this problem's parameters."""
+        """The velocity-tension solve of ``shape`` with this problem's parameters.
+
+        With ``split`` at the shape of the last linearised Jacobian (a steady state whose
+        stability was just analysed) the three solves reuse its factorised system: exact, no
+        iterations."""
+        kept = self.__dict__.get("_kept_system")
+        if split and kept is not None and kept[0] == self._key(shape):
+            system = kept[1]
+            parts = {"bending": system.flow_result(True, False),
+                     "flow": system.flow_result(False, True)}  # fmt: skip
+            return with_split(system.flow_result(), parts)
         return solve_flow(
             shape,
             self.physics,
@@ -99,7 +127,27 @@ class SteadyProblem:
             discretisation=self.discretisation,
             sigma0=sigma0,
             split=split,
+            operators=self._operators(shape),
         )
+
+    @staticmethod
+    def _key(shape: Shape) -> tuple:
+        return (shape.grid.n_theta, shape.coefficients.tobytes())
+
+    def _operators(self, shape: Shape):
+        """The layer potentials of the last shape solved, kept for its linearised Jacobian
+        (one shape: the assembled matrices are the size of the problem); ``None`` (built by
+        the solve and dropped) for finite differences."""
+        if self.jacobian_method != "linearised":
+            return None
+        key = self._key(shape)
+        kept = self.__dict__.get("_kept_operators")
+        if kept is None or kept[0] != key:
+            kernels = ("single",) if self.physics.lam == 1.0 else ("single", "double")
+            lp = LayerPotentials(shape, kernels=kernels, **self.discretisation.operator_options())
+            kept = (key, lp)
+            object.__setattr__(self, "_kept_operators", kept)
+        return kept[1]
 
     def adot(self, a: np.ndarray, sigma0=None) -> tuple[np.ndarray, FlowResult]:
         """``adot(a)`` and the solve it came from."""
@@ -133,10 +181,33 @@ class SteadyProblem:
         central: bool = False,
         executor: Executor | None = None,
     ) -> tuple[np.ndarray, int]:
-        """``M = d adot / d a`` by differences of step ``1e-4 max(1, |a_00|)`` and the number of
-        solves it took: forward (``base = adot(a)`` given, one solve per column) for Newton,
-        central (two) for the stability analysis, where the forward difference's O(h) bias
-        shifts the small growth rates (1.5 % of omega_I at N = 4, against 0.02 %)."""
+        """``M = d adot / d a`` and the number of velocity solves it took.
+
+        ``jacobian_method="linearised"`` (default): the solve of ``a``'s shape differentiated
+        (:func:`vesicle.linearisation.linearised_jacobian`), exact to about 1e-9 and no solves
+        (one factorisation; ``base``, ``central`` and ``executor`` are not needed).  The exact
+        sphere, whose system has an extra multiplier, falls back to central differences
+        (logged).
+
+        ``"differences"`` (the reference): step ``1e-4 max(1, |a_00|)``, forward (``base =
+        adot(a)`` given, one solve per column) for Newton, central (two) for the stability
+        analysis, where the forward difference's O(h) bias shifts the small growth rates
+        (1.5 % of omega_I at N = 4, against 0.02 %).  The central difference's own O(h^2)
+        error is about 1e-5 relative (measured against the linearised Jacobian and against
+        differences of steps 3e-4, 1e-4, 3e-5).
+        """
+        if self.jacobian_method == "linearised":
+            shape = self.shape(a)
+            if abs(shape.reduced_volume - 1.0) >= SPHERE_TOLERANCE:
+                solver = VelocityTensionSolver(
+                    shape, self.physics, self.tolerances, self._operators(shape),
+                    discretisation=self.discretisation,
+                )  # fmt: skip
+                system = FactorisedSystem(solver)
+                object.__setattr__(self, "_kept_system", (self._key(shape), system))
+                return linearised_jacobian(solver, self.basis, system=system).jacobian, 0
+            log.info("exact sphere: Jacobian by central differences")
+            central = True
         h = JACOBIAN_STEP * max(1.0, abs(a[0]))
         column = partial(_adot_column, self, sigma0=sigma0)
         return finite_difference_jacobian(column, a, h, base, central, executor)

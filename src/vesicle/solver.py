@@ -39,6 +39,7 @@ __all__ = [
     "SolverTolerances",
     "VelocityTensionSolver",
     "solve_flow",
+    "with_split",
 ]
 
 log = logging.getLogger(__name__)
@@ -445,14 +446,7 @@ def solve_flow(
             "bending": solver.solve(None, bending=True, flow=False),
             "flow": solver.solve(None, bending=False, flow=True),
         }
-        converged = result.converged and all(p.converged for p in parts.values())
-        result = FlowResult(
-            **{
-                **result.__dict__,
-                "converged": converged,
-                "split": {k: p.stress for k, p in parts.items()},
-            }
-        )
+        result = with_split(result, parts)
     if not result.converged and raise_on_failure:
         raise SolverError(
             f"velocity-tension solve did not converge: {result.outer_iterations} outer and "
@@ -461,6 +455,18 @@ def solve_flow(
             result,
         )
     return result
+
+
+def with_split(result: FlowResult, parts: dict[str, FlowResult]) -> FlowResult:
+    """``result`` with the stresses of its bending and flow parts (``split=True``)."""
+    converged = result.converged and all(p.converged for p in parts.values())
+    return FlowResult(
+        **{
+            **result.__dict__,
+            "converged": converged,
+            "split": {k: p.stress for k, p in parts.items()},
+        }
+    )
 
 
 def _physics(shape: Shape, physics, lam, chi, flow) -> Physics:

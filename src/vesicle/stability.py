@@ -148,6 +148,7 @@ def critical_lambda(
     *,
     v: float | None = None,
     chi: float | None = None,
+    jacobian: str = "linearised",
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
 
@@ -182,6 +183,7 @@ def critical_lambda(
                 executor=executor,
                 progress=progress,
                 max_iterations=max_iterations,
+                jacobian=jacobian,
             )
         except NewtonError as err:
             raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err

@@ -208,6 +208,7 @@ def steady_tank_treading(
     progress=None,
     updates: str = "broyden",
     guess: np.ndarray | None = None,
+    jacobian: str = "linearised",
 ) -> SteadyResult:
     """Newton–Raphson for the steady tank-treading shape (SPEC §8).
 
@@ -246,6 +247,12 @@ def steady_tank_treading(
         fresh Jacobians as the reference does.
         ``"none"``: the reference, a fresh Jacobian at every Newton step once the chord steps
         on a neighbour's Jacobian stop paying (the method before the Broyden updates).
+    jacobian : {"linearised", "differences"}
+        How the Jacobians of Newton and of the stability analysis are formed (see
+        :meth:`vesicle.problem.SteadyProblem.jacobian`): ``"linearised"`` (default) differentiates
+        the solve (no solves per column, exact to about 1e-9); ``"differences"`` is the
+        reference (forward differences in Newton, central ones at the solution; the
+        ``executor`` runs their columns).
     progress : callable, optional
         Called after every Newton iteration with ``{"lam", "chi", "iteration", "residual",
         "seconds"}``.
@@ -256,7 +263,9 @@ def steady_tank_treading(
         max_iterations = 30 if updates == "broyden" else 12
     if int(max_iterations) < 1:
         raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
-    problem = SteadyProblem(physics, discretisation, solver_tolerances or NEWTON_TOLERANCES)
+    problem = SteadyProblem(
+        physics, discretisation, solver_tolerances or NEWTON_TOLERANCES, jacobian_method=jacobian
+    )
     newton = _Newton(problem, executor, chord_contraction, progress, updates)
     newton.start(initial)
     if guess is not None:

@@ -13,6 +13,7 @@ from ..branch import branch, parse_values, reach
 from ..config import read_config
 from ..parallel import executor
 from ..parameters import Physics
+from ..problem import JACOBIANS
 from ..solver import SolverError
 from ..stability import critical_lambda, stability
 from ..steady import UPDATES, NewtonError
@@ -65,6 +66,17 @@ _UPDATES = click.option(
 )
 
 
+_JACOBIAN = click.option(
+    "--jacobian",
+    type=click.Choice(JACOBIANS),
+    default="linearised",
+    show_default=True,
+    help="How Newton and stability form Jacobians: the solve differentiated (no solves per "
+    "column), or finite differences of perturbed solves (the reference; --workers/--scheduler "
+    "run their columns).",
+)
+
+
 @main.command()
 @physics_options()
 @discretisation_options()
@@ -74,6 +86,7 @@ _UPDATES = click.option(
 )
 @_MAX_ITERATIONS
 @_UPDATES
+@_JACOBIAN
 @click.option(
     "--workers", type=int, default=1, show_default=True, help="Processes for the Jacobian columns."
 )
@@ -82,7 +95,7 @@ _UPDATES = click.option(
 @config_option
 @click.pass_context
 def tt(
-    ctx, with_stability, modes, max_iterations, updates, workers, scheduler, as_json,
+    ctx, with_stability, modes, max_iterations, updates, jacobian, workers, scheduler, as_json,
     config_path, **options,
 ) -> None:  # fmt: skip
     """Steady tank-treading shape by Newton (and its linear stability)."""
@@ -97,6 +110,7 @@ def tt(
                 progress=_echo_progress,
                 max_iterations=max_iterations,
                 updates=updates,
+                jacobian=jacobian,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
@@ -119,6 +133,7 @@ def tt(
         "newton_iterations": r.newton_iterations,
         "jacobians": r.jacobians,
         "updates": updates,
+        "jacobian": jacobian,
         "residual": r.residual,
         "residual_history": list(r.residual_history),
         "multipliers": list(r.multipliers),
@@ -146,14 +161,16 @@ def tt(
 )
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
 @_MAX_ITERATIONS
+@_JACOBIAN
 @click.option("--workers", type=int, default=1, show_default=True)
 @_SCHEDULER
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
 def critical(
-    ctx, lam0, step, xtol, max_iterations, workers, scheduler, as_json, config_path, **options
-) -> None:
+    ctx, lam0, step, xtol, max_iterations, jacobian, workers, scheduler, as_json, config_path,
+    **options,
+) -> None:  # fmt: skip
     """Critical viscosity ratio where steady tank-treading loses stability."""
     try:
         _configure(ctx, options, config_path)
@@ -168,6 +185,7 @@ def critical(
                 executor=pool,
                 progress=_echo_progress,
                 max_iterations=max_iterations,
+                jacobian=jacobian,
             )
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
@@ -182,6 +200,7 @@ def critical(
             "lambda_c": c.lambda_c,
             "bifurcation": c.bifurcation,
             "omega_R": c.omega_R,
+            "jacobian": jacobian,
             "history": [list(h) for h in c.history],
         },
         as_json,
@@ -273,6 +292,7 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     show_default=True,
     help="Arclength steps beyond a fold, on the unstable side.",
 )
+@_JACOBIAN
 @click.option("--workers", type=int, default=1, show_default=True)
 @_SCHEDULER
 @click.option(
@@ -282,8 +302,8 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     help="Write the branch as JSON to this file.",
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, workers, scheduler,
-                   out, as_json, **options) -> None:  # fmt: skip
+def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, jacobian, workers,
+                   scheduler, out, as_json, **options) -> None:  # fmt: skip
     """Continue steady tank-treading in lam, chi or v, with its stability and special points."""
     name, values, fixed = _branch_parameters({"v": v, "lam": lam, "chi": chi}, step)
     try:
@@ -295,7 +315,7 @@ def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, worker
             _writable(Path(out))
         with _executor(workers, scheduler) as pool:
             b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
-                       arclength=arclength, past_fold=past_fold,
+                       arclength=arclength, past_fold=past_fold, jacobian=jacobian,
                        progress=_echo_progress)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))

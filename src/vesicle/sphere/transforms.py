@@ -132,6 +132,15 @@ class SHTransform:
         out = self._fourier_stage(spectra).reshape(6, *batch, *self.grid.shape)
         return Derivatives(f=out[0], p=out[1], pp=out[2], t=out[3], tp=out[4], tt=out[5])
 
+    def gradient(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(d/dtheta, d/dphi)`` of the fields with coefficients ``c`` (what :meth:`derivatives`
+        gives as ``t`` and ``p``, at a third of its cost)."""
+        G, batch = self._legendre_stage(c, 2)
+        im = 1j * np.arange(self.lmax + 1)[:, None, None]
+        out = self._fourier_stage(np.stack([G[:, 1], im * G[:, 0]]))
+        out = out.reshape(2, *batch, *self.grid.shape)
+        return out[0], out[1]
+
     def filter(self, f: np.ndarray, degree: int | None = None) -> np.ndarray:
         """Project grid values onto spherical harmonics of degree <= ``degree`` (default lmax)."""
         c = self.analysis(f)

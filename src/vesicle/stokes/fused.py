@@ -21,7 +21,7 @@ from numba import njit
 
 from .kernels import PAIRS as KERNEL_PAIRS
 
-__all__ = ["PAIRS", "ring_components", "scatter_rows"]
+__all__ = ["PAIRS", "ring_components", "ring_shape_difference", "scatter_rows"]
 
 #: The six stored components of a symmetric kernel: the one definition of :mod:`.kernels`.
 PAIRS = KERNEL_PAIRS
@@ -183,3 +183,149 @@ def scatter_rows(
     :func:`.backends.numpy_backend.assemble_ring_numpy`.
     """
     _scatter(re, im, cos, sin, out, ring, first, _PAIR_A, _PAIR_B)
+
+
+# ------------------------------------------------- shape derivatives at fixed densities
+@njit(inline="always", fastmath=True, error_model="numpy")
+def _moved_node(rr, rtt, rpp, fr, c, s, t0, t1, t2, wq, ws, wd, f0, f1, f2, g0, g1, g2):
+    """Single- and double-layer terms of one node for one moved geometry (formulas of _fill);
+    ``fr`` holds the node's ``e_r', e_theta', e_phi'`` components."""
+    y0, y1, y2 = rr * fr[0], rr * fr[1], rr * fr[2]
+    n0 = rr * (y0 - rtt * fr[3] - rpp * fr[6])
+    n1 = rr * (y1 - rtt * fr[4] - rpp * fr[7])
+    n2 = rr * (y2 - rtt * fr[5] - rpp * fr[8])
+    h0, h1, h2 = c * y0 - s * y1 - t0, s * y0 + c * y1 - t1, y2 - t2
+    m0, m1 = c * n0 - s * n1, s * n0 + c * n1
+    inv_r = 1.0 / np.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
+    ir2 = inv_r * inv_r
+    # single layer: w J (f / r + h (h . f) / r^3)
+    b = ws * wq * np.sqrt(m0 * m0 + m1 * m1 + n2 * n2) * inv_r
+    a = b * ir2 * (h0 * f0 + h1 * f1 + h2 * f2)
+    # double layer: -6 (h . w J n) h (h . g) / r^5
+    t = wd * -6.0 * wq * (h0 * m0 + h1 * m1 + h2 * n2) * ir2 * ir2 * inv_r
+    t *= h0 * g0 + h1 * g1 + h2 * g2
+    return a * h0 + b * f0, a * h1 + b * f1, a * h2 + b * f2, t * h0, t * h1, t * h2
+
+
+@njit(cache=True, nogil=True, fastmath=True, error_model="numpy")
+def _node_sums(r, rt, rp, dr, drt, drp, fr, isn, w, c, s, p, m, f, g, eps, ws, wd):
+    """The sums over the nodes of one target and one direction (1-D arrays over the nodes)."""
+    s0 = s1 = s2 = d0 = d1 = d2 = 0.0
+    for q in range(r.size):
+        frq = (fr[0, q], fr[1, q], fr[2, q], fr[3, q], fr[4, q], fr[5, q], fr[6, q], fr[7, q],
+               fr[8, q])  # fmt: skip
+        f0, f1, f2, g0, g1, g2 = f[0, q], f[1, q], f[2, q], g[0, q], g[1, q], g[2, q]
+        er, et, ep = eps * dr[q], eps * drt[q], eps * drp[q]
+        a = _moved_node(
+            r[q] + er, rt[q] + et, (rp[q] + ep) * isn[q], frq, c, s, p[0], p[1], p[2], w[q],
+            ws, wd, f0, f1, f2, g0, g1, g2,
+        )  # fmt: skip
+        b = _moved_node(
+            r[q] - er, rt[q] - et, (rp[q] - ep) * isn[q], frq, c, s, m[0], m[1], m[2], w[q],
+            ws, wd, f0, f1, f2, g0, g1, g2,
+        )  # fmt: skip
+        s0 += a[0] - b[0]
+        s1 += a[1] - b[1]
+        s2 += a[2] - b[2]
+        d0 += a[3] - b[3]
+        d1 += a[4] - b[4]
+        d2 += a[5] - b[5]
+    return s0, s1, s2, d0, d1, d2
+
+
+@njit(cache=True, nogil=True)
+def _shape_difference(
+    r, rt, rp, dr, drt, drp, frame, inv_sin, w, cos_k, sin_k, x0, dx0, f, u, u0, eps,
+    single, double, out_s, out_d,
+):  # fmt: skip
+    """``sum_q [k(x + eps d) - k(x - eps d)] . density`` for every direction ``d``.
+
+    Layouts put the nodes last (``r[k, q]``, ``dr[j, k, q]``, ``f[k, c, q]``) so that the sum
+    over nodes is a vectorised reduction; the difference is taken node by node, before the sum.
+    """
+    n_dir, n_targets, n_nodes = dr.shape
+    ws = 1.0 if single else 0.0
+    wd = 1.0 if double else 0.0
+    fr = frame.reshape(9, n_nodes)
+    g = np.empty((3, n_nodes))
+    p = np.empty(3)
+    m = np.empty(3)
+    for k in range(n_targets):
+        for a in range(3):
+            g[a] = u[k, a] - u0[a, k]
+        for j in range(n_dir):
+            for a in range(3):
+                p[a] = x0[a, k] + eps * dx0[j, a, k]
+                m[a] = x0[a, k] - eps * dx0[j, a, k]
+            sums = _node_sums(
+                r[k], rt[k], rp[k], dr[j, k], drt[j, k], drp[j, k], fr, inv_sin, w,
+                cos_k[k], sin_k[k], p, m, f[k], g, eps, ws, wd,
+            )  # fmt: skip
+            out_s[j, 0, k], out_s[j, 1, k], out_s[j, 2, k] = sums[0], sums[1], sums[2]
+            out_d[j, 0, k], out_d[j, 1, k], out_d[j, 2, k] = sums[3], sums[4], sums[5]
+
+
+def ring_shape_difference(
+    base: tuple[np.ndarray, np.ndarray, np.ndarray],
+    directions: tuple[np.ndarray, np.ndarray, np.ndarray],
+    frame: np.ndarray,
+    inv_sin: np.ndarray,
+    weights: np.ndarray,
+    phi: np.ndarray,
+    x0: np.ndarray,
+    dx0: np.ndarray,
+    f: np.ndarray | None,
+    u: np.ndarray | None,
+    u0: np.ndarray | None,
+    eps: float,
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Central differences, times ``2 eps``, of the layer potentials of fixed densities at the
+    targets of one ring when the radius moves by ``+- eps`` along each direction.
+
+    Parameters
+    ----------
+    base : (r, r_theta', r_phi'), each (K, Q)
+        The radius and its rotated-frame derivatives at the rotated nodes of each target.
+    directions : (dr, dr_theta', dr_phi'), each (J, K, Q)
+        The same for the J radius directions.
+    frame, inv_sin, weights, phi, x0
+        As in :func:`ring_components`.
+    dx0 : (J, 3, K)
+        How the targets move along each direction.
+    f, u : (K, 3, Q) or None
+        Single- and double-layer densities at the rotated nodes (grid values, fixed).
+    u0 : (3, K)
+        The double-layer density at the targets (its singularity subtraction).
+
+    Returns
+    -------
+    single, double : (J, 3, K) or None
+        ``N[f](x + eps d) - N[f](x - eps d)`` and the same for ``K[u]`` (the ``-4 pi u0`` of the
+        subtraction does not move).
+    """
+    n_dir, n_targets, n_nodes = directions[0].shape
+    single, double = f is not None, u is not None
+    dummy = np.zeros((n_targets, 3, n_nodes))
+    out_s = np.zeros((n_dir, 3, n_targets))
+    out_d = np.zeros((n_dir, 3, n_targets))
+    contiguous = np.ascontiguousarray
+    _shape_difference(
+        *(contiguous(a) for a in base),
+        *(contiguous(a) for a in directions),
+        contiguous(frame),
+        contiguous(inv_sin),
+        contiguous(weights),
+        np.cos(phi),
+        np.sin(phi),
+        contiguous(x0),
+        contiguous(dx0),
+        contiguous(f) if single else dummy,
+        contiguous(u) if double else dummy,
+        contiguous(u0) if double else dummy[:, :, 0].T,
+        float(eps),
+        single,
+        double,
+        out_s,
+        out_d,
+    )
+    return (out_s if single else None), (out_d if double else None)

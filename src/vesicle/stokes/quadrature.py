@@ -161,6 +161,38 @@ class SingularQuadrature:
         spectra.append(1j * np.arange(n)[:, None, None] * spectra[0])
         return tuple(self._azimuthal(F) for F in spectra)
 
+    @cached_property
+    def theta_major(self) -> np.ndarray:
+        """Node permutation to ``theta'``-major order: ``values[..., theta_major]`` has node
+        ``a * 2 n_rot + j`` for ``(theta'_a, phi'_j)`` (the :meth:`synthesize_by_field` layout)."""
+        j, a = np.meshgrid(np.arange(self.n_rot_phi), np.arange(self.n_rot))
+        return (j * self.n_rot + a).ravel()
+
+    def synthesize_by_field(self, c: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`synthesize` with derivatives, field-first and ``theta'``-major: each of
+        ``(f, df/dtheta', df/dphi')`` is (B, Q) with the nodes ordered as :attr:`theta_major`.
+
+        Meant for low-degree coefficients (directions of a shape of degree N): the azimuthal
+        sum is one real matrix product over all fields instead of strided FFTs."""
+        n = c.shape[0]
+        P, dP = self.legendre_rot
+        cm = c.transpose(1, 2, 0)  # (m, B, l)
+        re, im = np.ascontiguousarray(cm.real), np.ascontiguousarray(cm.imag)
+        m = np.arange(n)[:, None, None]
+        spectra = []  # [Re F; Im F] as (2m, B, a) for f, df/dtheta', df/dphi'
+        for T in (P, dP):
+            Tt = T[:n, :, :n].transpose(0, 2, 1)  # (m, l, a)
+            spectra.append((np.matmul(re, Tt), np.matmul(im, Tt)))
+        spectra.append((-m * spectra[0][1], m * spectra[0][0]))
+        angles = np.outer(np.arange(n), self.phi_rot)  # (m, j)
+        w = np.where(np.arange(n) == 0, 1.0, 2.0)[:, None]
+        E = np.concatenate([w * np.cos(angles), -w * np.sin(angles)])  # (2m, j)
+        out = []
+        for F_re, F_im in spectra:
+            F = np.concatenate([F_re, F_im]).reshape(2 * n, -1)  # (2m, B * a)
+            out.append((F.T @ E).reshape(c.shape[-1], self.n_nodes))  # (B, a * j)
+        return out[0], out[1], out[2]
+
     def _azimuthal(self, F: np.ndarray) -> np.ndarray:
         """Spectrum (m, a, B) -> real values (Q, B): ``sum_m w_m F_m e^{i m phi'}``.
 
