@@ -1,52 +1,121 @@
-"""Steady TT + stability (vesicle tt --stability): Newton with Broyden updates against the
-reference (a fresh Jacobian every Newton step), serial, and the new path with 2 workers.
+"""Steady TT + stability (``vesicle tt --stability``), v = 0.95, lam = 8, chi = 10.
 
-Cases: N = 4 on 16x32 and N = 6 on 24x48; set VESICLE_BENCH_FULL=1 to add the paper's N = 8 on
-32x64 (about 15 min).  Reported: wall times, their ratio (same run, same inputs), solves,
-Jacobians formed, and the relative difference of omega between the two paths.
+Paths timed in the same run, on the same inputs:
+
+- ``reference``: finite-difference Jacobians (forward in Newton, central at the solution), a fresh
+  one every Newton step (``jacobian="differences", updates="none"``): the method before issue 12;
+- ``broyden``: the same Jacobians reused with Broyden updates (``jacobian="differences"``);
+- ``broyden_2_workers``: that, with the columns on 2 processes;
+- ``linearised``: the default (the solve differentiated, :mod:`vesicle.linearisation`).
+
+Cases: N = 4 on 16x32 and N = 6 on 24x48; ``VESICLE_BENCH_FULL=1`` adds the paper's N = 8 on
+32x64 (about 13 min) and, there, one continuation step (lam 8 -> 8.3 from the converged state)
+and ``critical_lambda(v=0.95, chi=1)`` from its default start.  Reported: wall times, ratios
+against the reference, GMRES solves, Jacobians formed, the time inside the linearised Jacobians
+(split into factorisation, layer-potential derivatives, local differences and the batched
+solve) and the relative difference of omega from the reference.
 """
 
 from __future__ import annotations
 
 import os
 import time
+from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
 import vesicle as vs
+import vesicle.problem as problem_module
+
+PATHS = {
+    "reference": dict(jacobian="differences", updates="none"),
+    "broyden": dict(jacobian="differences", updates="broyden"),
+    "broyden_2_workers": dict(jacobian="differences", updates="broyden"),
+    "linearised": dict(jacobian="linearised", updates="broyden"),
+}
 
 
-def _time(updates: str, executor, degree: int, grid: int):
-    t0 = time.perf_counter()
+class _JacobianClock:
+    """Sums the pieces of every linearised Jacobian formed while it is installed."""
+
+    def __init__(self):
+        self.seconds = defaultdict(float)
+        self.count = 0
+        self._original = problem_module.linearised_jacobian
+
+    def __enter__(self):
+        def timed(*args, **kwargs):
+            out = self._original(*args, **kwargs)
+            self.count += 1
+            for k, v in out.seconds.items():
+                self.seconds[k] += v
+            return out
+
+        problem_module.linearised_jacobian = timed
+        return self
+
+    def __exit__(self, *exc):
+        problem_module.linearised_jacobian = self._original
+
+
+def _time(path: str, degree: int, grid: int):
     p = vs.Physics(v=0.95, lam=8.0, chi=10.0)
-    r = vs.steady_tank_treading(p, vs.Discretisation(grid, degree), executor=executor,
-                                updates=updates)  # fmt: skip
-    w = vs.stability(r).most_unstable
-    return time.perf_counter() - t0, np.array(w), r
+    d = vs.Discretisation(grid, degree)
+    pool = ProcessPoolExecutor(2) if path.endswith("2_workers") else None
+    with _JacobianClock() as clock:
+        t0 = time.perf_counter()
+        r = vs.steady_tank_treading(p, d, executor=pool, **PATHS[path])
+        w = vs.stability(r).most_unstable
+        seconds = time.perf_counter() - t0
+    if pool is not None:
+        pool.shutdown()
+    return seconds, np.array(w), r, clock
+
+
+def _continuation_and_critical(steady) -> dict:
+    """Target 2 of issue 12: one step lam 8 -> 8.3 and lambda_c at chi = 1 (N = 8, 32x64)."""
+    out = {}
+    t0 = time.perf_counter()
+    step = vs.steady_tank_treading(steady.physics.replace(lam=8.3), steady.discretisation,
+                                   initial=steady)  # fmt: skip
+    vs.stability(step)
+    out["continuation_step_s"] = time.perf_counter() - t0
+    out["continuation_step_solves"] = step.solves
+    t0 = time.perf_counter()
+    c = vs.critical_lambda(vs.Physics(v=0.95, chi=1.0), steady.discretisation)
+    out["critical_s"] = time.perf_counter() - t0
+    out["lambda_c"] = c.lambda_c
+    out["critical_evaluations"] = len(c.history)
+    print(f"  continuation step lam 8 -> 8.3: {out['continuation_step_s']:.1f} s "
+          f"({step.solves} solves); critical_lambda(v=0.95, chi=1): {out['critical_s']:.1f} s, "
+          f"lambda_c = {c.lambda_c:.5f} ({len(c.history)} evaluations)")  # fmt: skip
+    return out
 
 
 def run() -> dict:
-    cases = [(4, 16), (6, 24)] + ([(8, 32)] if os.environ.get("VESICLE_BENCH_FULL") else [])
+    full = bool(os.environ.get("VESICLE_BENCH_FULL"))
+    cases = [(4, 16), (6, 24)] + ([(8, 32)] if full else [])
     results = {}
     for degree, grid in cases:
-        ref_s, w_ref, ref = _time("none", None, degree, grid)
-        new_s, w_new, new = _time("broyden", None, degree, grid)
-        with ProcessPoolExecutor(2) as pool:
-            par_s, w_par, _ = _time("broyden", pool, degree, grid)
         key = f"N={degree} {grid}x{2 * grid}"
-        diff = float(np.max(np.abs(w_new - w_ref) / np.abs(w_ref)))
-        results[key] = {
-            "reference_s": ref_s, "broyden_s": new_s, "broyden_2_workers_s": par_s,
-            "reference_solves": ref.solves, "broyden_solves": new.solves,
-            "reference_jacobians": ref.jacobians, "broyden_jacobians": new.jacobians,
-            "omega_reference": w_ref.tolist(), "omega_broyden": w_new.tolist(),
-            "omega_relative_difference": diff, "parallel_identical": bool(np.all(w_par == w_new)),
-        }  # fmt: skip
-        print(
-            f"  {key}: reference {ref_s:.1f} s ({ref.solves} solves, {ref.jacobians} Jacobians),"
-            f" Broyden {new_s:.1f} s ({new.solves} solves, {new.jacobians} Jacobians): "
-            f"{ref_s / new_s:.2f}x; 2 workers {par_s:.1f} s ({ref_s / par_s:.2f}x); "
-            f"omega ({w_new[0]:.5f}, {w_new[1]:.5e}), relative difference {diff:.1e}"
-        )
+        row, timed = {}, {}
+        for path in PATHS:
+            timed[path] = _time(path, degree, grid)
+        ref_s, w_ref, ref, _ = timed["reference"]
+        for path, (s, w, r, clock) in timed.items():
+            row[path] = {
+                "seconds": s, "ratio": ref_s / s, "solves": r.solves, "jacobians": r.jacobians,
+                "omega": w.tolist(),
+                "omega_relative_difference": float(np.max(np.abs(w - w_ref)) / np.abs(w_ref).max()),
+                "linearised_jacobians": clock.count, "linearised_seconds": dict(clock.seconds),
+            }  # fmt: skip
+            pieces = ", ".join(f"{k} {v:.1f} s" for k, v in clock.seconds.items())
+            print(f"  {key} {path}: {s:.1f} s ({ref_s / s:.2f}x), {r.solves} solves, "
+                  f"{r.jacobians} Newton Jacobians, omega ({w[0]:.6f}, {w[1]:.6e}), difference "
+                  f"{row[path]['omega_relative_difference']:.1e}"
+                  + (f"; {clock.count} linearised Jacobians: {pieces}" if clock.count else ""))
+        if degree == 8:
+            row.update(_continuation_and_critical(timed["linearised"][2]))
+        results[key] = row
     return results

@@ -199,8 +199,9 @@ class _Tracer:
     """The continuation's state: points so far and the corrector."""
 
     def __init__(
-        self, physics, discretisation, parameter, executor, progress, max_halvings, jacobian
-    ):
+        self, physics, discretisation, parameter, executor, progress, max_halvings,
+        jacobian="linearised",
+    ):  # fmt: skip
         self.physics, self.disc, self.parameter = physics, discretisation, parameter
         self.jacobian = jacobian
         self.executor, self.progress = executor, progress
