@@ -61,7 +61,7 @@ def cells_of(arrays) -> list[np.ndarray]:
 
 def test_export_writes_closed_meshes_and_collection(tmp_path):
     run = synthetic_run()
-    paths = export_vtk(run, tmp_path / "vtk")
+    paths = export_vtk(run, tmp_path / "vtk", encoding="ascii")  # text: parsed below as XML
     assert [p.name for p in paths] == [f"surface_{i:06d}.vtp" for i in range(5)] + ["surface.pvd"]
     n_theta, n_phi = GRID, 2 * GRID
     n_points = n_theta * n_phi + 2
@@ -116,7 +116,7 @@ def test_pole_values():
 
 def test_pvd_lists_steps_with_times(tmp_path):
     run = synthetic_run(n=7)
-    paths = export_vtk(run, tmp_path, every=3)
+    paths = export_vtk(run, tmp_path, every=3, encoding="ascii")
     assert [p.name for p in paths[:-1]] == [f"surface_{i:06d}.vtp" for i in (0, 3, 6)]
     assert all(p.exists() and p.parent == tmp_path for p in paths)
     root = ET.parse(paths[-1]).getroot()
@@ -132,3 +132,53 @@ def test_every_is_validated(tmp_path, every):
     with pytest.raises(ValueError, match="every must be an integer >= 1"):
         export_vtk(synthetic_run(n=2), tmp_path, every=every)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.fixture(scope="module")
+def run_with_fields(tmp_path_factory):
+    """20 steps of a run that kept its fields (12 x 24, N = 4)."""
+    from vesicle.dynamics import RunParameters
+    from vesicle.io import read_run
+    from vesicle.simulation import simulate
+
+    path = tmp_path_factory.mktemp("fields") / "r.h5"
+    params = RunParameters(v=0.9, lam=2.0, chi=3.0, grid=12, degree=4, t_end=0.02,
+                           save_every=0.001, dt0=1e-3, dt_max=1e-3)  # fmt: skip
+    simulate(params, out=path)
+    return read_run(path)
+
+
+def test_binary_export_opens_in_pyvista_with_tension_and_velocity(run_with_fields, tmp_path):
+    """The default (zlib-compressed, appended raw, Float32) files read by VTK itself through
+    pyvista: the mesh, the point arrays, the tension and velocity of the run file (to Float32
+    rounding) and the time series of the .pvd."""
+    import pyvista as pv
+
+    run = run_with_fields
+    paths = export_vtk(run, tmp_path / "b")
+    mesh = pv.read(paths[5])
+    n = 12 * 24
+    assert mesh.n_points == n + 2 and mesh.n_cells == 11 * 24 + 2 * 24
+    assert set(mesh.point_data.keys()) >= {"mean_curvature", "normal", "radius", "tension",
+                                           "velocity"}  # fmt: skip
+    sigma, u = run.fields["sigma"][5], run.fields["velocity"][5]
+    scale = np.abs(sigma).max()
+    np.testing.assert_allclose(mesh.point_data["tension"][:n], sigma.ravel(), atol=1e-6 * scale)
+    np.testing.assert_allclose(mesh.point_data["velocity"][:n], u.reshape(3, -1).T,
+                               atol=1e-6 * np.abs(u).max())  # fmt: skip
+    np.testing.assert_allclose(mesh.points[:n], run.shape(5).x.reshape(3, -1).T, atol=1e-6)
+    reader = pv.PVDReader(paths[-1])
+    np.testing.assert_allclose(reader.time_values, run.series["t"], rtol=1e-12)
+
+
+def test_binary_export_is_five_times_smaller_than_text(run_with_fields, tmp_path):
+    """A 21-file export: text (double precision, what every export wrote before) against the
+    default binary one with the same arrays (measured 1.59 MB against 0.23 MB: 7x)."""
+    run = run_with_fields
+    size = {}
+    for encoding in ("ascii", "binary"):
+        paths = export_vtk(run, tmp_path / encoding, encoding=encoding)
+        size[encoding] = sum(p.stat().st_size for p in paths)
+    assert size["ascii"] > 5 * size["binary"]
+    with pytest.raises(ValueError, match="encoding"):
+        export_vtk(run, tmp_path / "x", encoding="base64")

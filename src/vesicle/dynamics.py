@@ -97,6 +97,7 @@ RUN_DEFAULTS = {
     "steady_tol": 0.0,  # stop when max |dr/dt| falls below this (0: never)
     "periods": 0,  # stop after this many psi periods (0: never)
     "split_stress": False,  # also store S^B and S^V at saved steps (two more solves each)
+    "save_fields": True,  # store the tension and the membrane velocity on the grid
     "checkpoint_every": 60.0,  # wall seconds between checkpoints
 }
 
@@ -136,6 +137,7 @@ class RunParameters:
     steady_tol: float
     periods: int
     split_stress: bool
+    save_fields: bool
     checkpoint_every: float
 
     def __init__(

@@ -12,7 +12,10 @@ Layout of a run file (all written by :func:`write_run`):
     back to equal :class:`~vesicle.dynamics.RunParameters`.
 ``/series/<name>``
     one entry per saved step for each name of :data:`SERIES` (the one list of saved series,
-    with each one's trailing shape and meaning).
+    with each one's trailing shape and meaning; :data:`OPTIONAL_SERIES` only when asked for),
+    and, unless the run opted out, the :data:`FIELDS` ``sigma`` (t, theta, phi) and
+    ``velocity`` (t, i, theta, phi) on the grid.  netCDF dimension scales (``t``, ``i``, ``j``,
+    ``l``, ``theta``, ``phi``) make the group an xarray Dataset as it is.
 ``/shapes/coefficients``
     (n, N+1, N+1) complex radius coefficients at the saved steps (SPEC §2 normalisation).
 ``/checkpoint``
@@ -26,10 +29,13 @@ verified on reading: a damaged or altered file is refused with a clear error.
 from __future__ import annotations
 
 import errno
+import gc
 import hashlib
 import json
+import logging
 import os
 import shutil
+import sys
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
@@ -39,11 +45,16 @@ import h5py
 import numpy as np
 
 from . import __version__
+from .sphere.grid import SphereGrid
 from .surface import Shape
 
+log = logging.getLogger(__name__)
+
 __all__ = [
+    "FIELDS",
     "FORMAT",
     "FORMAT_VERSION",
+    "OPTIONAL_SERIES",
     "SERIES",
     "RunData",
     "content_checksum",
@@ -85,6 +96,16 @@ SERIES = {
     "spectrum": (("N+1",), "modal energy E_l of the radius (SPEC (3.5))", "a^2"),
 }
 
+#: Series stored only when the run asks for them (``split_stress``).
+OPTIONAL_SERIES = ("S_bending", "S_flow")
+
+#: Fields on the grid per saved step (``save_fields``): dimensions after ``t``, long name, units.
+#: ``theta`` and ``phi`` are the grid's colatitudes (Gauss-Legendre) and longitudes.
+FIELDS = {
+    "sigma": (("theta", "phi"), "membrane tension", "kappa / a^2"),
+    "velocity": (("i", "theta", "phi"), "membrane velocity (lab frame)", "kappa / (mu a^2)"),
+}
+
 #: Dimension names of the series' trailing axes (netCDF dimensions of the HDF5 layout).
 _TRAILING = {(): (), (3,): ("i",), (3, 3): ("i", "j"), ("N+1",): ("l",)}
 
@@ -116,6 +137,7 @@ class RunData:
     coefficients: np.ndarray  # (n, N+1, N+1) complex
     checkpoint: dict | None = None
     attributes: dict = field(default_factory=dict)
+    fields: dict[str, np.ndarray] = field(default_factory=dict)  # FIELDS, per saved step
 
     @property
     def n_saved(self) -> int:
@@ -187,6 +209,8 @@ def content_checksum(run: RunData) -> str:
     for key in sorted(run.series):
         add("series/" + key, np.asarray(run.series[key]))
     add("shapes/coefficients", np.asarray(run.coefficients))
+    for key in sorted(run.fields):  # absent from files before fields: their checksums hold
+        add("fields/" + key, np.asarray(run.fields[key]))
     for key in sorted(run.checkpoint or {}):
         add("checkpoint/" + key, run.checkpoint[key])
     return h.hexdigest()
@@ -203,21 +227,46 @@ def _plain(value):
     return value
 
 
+def grid_coordinates(n_theta: int) -> dict[str, np.ndarray]:
+    """The ``theta`` (colatitude) and ``phi`` (longitude) coordinates of a run's grid."""
+    grid = SphereGrid(n_theta)
+    return {"theta": np.asarray(grid.theta), "phi": np.asarray(grid.phi)}
+
+
+_COORDINATE_MEANING = {
+    "theta": ("colatitude of the grid (Gauss-Legendre nodes)", "rad"),
+    "phi": ("longitude of the grid", "rad"),
+}
+
+
 def _label_series(group: h5py.Group, run: RunData) -> None:
-    """netCDF dimensions for the series (``t`` and the trailing ``i``, ``j``, ``l``) and each
-    one's ``long_name`` and ``units``: the group opens in xarray (engine h5netcdf) as is."""
+    """netCDF dimensions for the series and fields (``t``, the trailing ``i``, ``j``, ``l`` and
+    the grid's ``theta``, ``phi``) and each one's ``long_name`` and ``units``: the group opens
+    in xarray (engine h5netcdf) as is."""
     if "t" not in group:
         return
     group["t"].make_scale("t")
     degree = run.parameter("degree")
-    sizes = {"i": 3, "j": 3, "l": int(degree) + 1 if degree is not None else 0}
-    for name, size in sizes.items():
-        if size and name not in group:
-            d = group.create_dataset(name, data=np.arange(size))
+    coordinates = {
+        "i": np.arange(3), "j": np.arange(3),
+        "l": np.arange(int(degree) + 1) if degree is not None else np.zeros(0),
+    }  # fmt: skip
+    if run.fields:
+        coordinates.update(grid_coordinates(int(run.parameter("grid"))))
+    for name, values in coordinates.items():
+        if values.size and name not in group:
+            d = group.create_dataset(name, data=values)
             d.attrs["vesicle_dimension"] = 1
+            if name in _COORDINATE_MEANING:
+                d.attrs["long_name"], d.attrs["units"] = _COORDINATE_MEANING[name]
             d.make_scale(name)
     for key in group:
         ds = group[key]
+        if key in FIELDS:
+            ds.attrs["long_name"], ds.attrs["units"] = FIELDS[key][1], FIELDS[key][2]
+            for axis, dim in enumerate(("t", *FIELDS[key][0])):
+                ds.dims[axis].attach_scale(group[dim])
+            continue
         if key in SERIES:
             ds.attrs["long_name"] = SERIES[key][1]
             ds.attrs["units"] = SERIES[key][2]
@@ -254,6 +303,7 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
     now = datetime.now(UTC).isoformat(timespec="seconds")
+    _check_space(path, run)
     try:
         with h5py.File(tmp, "w") as f:
             f.attrs["format"] = FORMAT
@@ -273,6 +323,8 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
             series = f.create_group("series")
             for key, value in run.series.items():
                 series.create_dataset(key, data=np.asarray(value))
+            for key, value in run.fields.items():
+                series.create_dataset(key, data=np.asarray(value))
             _label_series(series, run)
             f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
             if run.checkpoint is not None:
@@ -285,16 +337,55 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
             f.flush()
         os.replace(tmp, path)
     except (OSError, RuntimeError) as err:  # HDF5 reports a full disk as a RuntimeError
+        _release_failed_file()
         tmp.unlink(missing_ok=True)
         free = shutil.disk_usage(path.parent).free if path.parent.is_dir() else 0
         raise OSError(
             errno.EIO, f"writing {path} failed ({err}; {free / 1e6:.1f} MB free there)"
-        ) from err
+        ) from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     run.attributes.setdefault("created", now)
     return path
+
+
+def _stored_bytes(run: RunData) -> int:
+    arrays = [*run.series.values(), *run.fields.values(), run.coefficients]
+    arrays += [v for v in (run.checkpoint or {}).values() if isinstance(v, np.ndarray)]
+    return sum(np.asarray(a).nbytes for a in arrays)
+
+
+def _check_space(path: Path, run: RunData) -> None:
+    """Refuse a write that cannot fit (the data plus 5 % and 48 kB of HDF5 metadata: a 21-step
+    run with fields at 12 x 24 holds 212 kB of arrays in a 242 kB file) before HDF5 runs out of
+    space half-way."""
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        return  # the write itself reports it
+    need = int(1.05 * _stored_bytes(run)) + 48 * 1024
+    free = shutil.disk_usage(folder).free
+    if free < need:
+        raise OSError(
+            errno.ENOSPC,
+            f"not enough space to write {path}: it needs about {need / 1e6:.1f} MB and "
+            f"{free / 1e6:.1f} MB are free there",
+        )
+
+
+def _release_failed_file() -> None:
+    """Collect the HDF5 objects of a write that failed (a full disk) now, with their release
+    errors ('file write failed', already reported by the write) logged, not printed."""
+    previous = sys.unraisablehook
+
+    def quiet(unraisable):
+        log.debug("after a failed write: %s", unraisable.exc_value)
+
+    sys.unraisablehook = quiet
+    try:
+        gc.collect()
+    finally:
+        sys.unraisablehook = previous
 
 
 def open_run(path: str | os.PathLike):
@@ -317,10 +408,17 @@ def open_run(path: str | os.PathLike):
         data[key] = (dims[: value.ndim], value, attrs)
     meaning = {"long_name": "radius coefficients r_lm (SPEC §2)", "units": "a"}
     data["coefficients"] = (("t", "l", "m"), run.coefficients, meaning)
+    for key, value in run.fields.items():
+        dims, long_name, units = FIELDS[key]
+        data[key] = (("t", *dims), value, {"long_name": long_name, "units": units})
     attrs = {k: json.dumps(_plain(v)) if isinstance(v, dict | list) else v
              for k, v in run.parameters.items()}  # fmt: skip
     attrs.update({f"file_{k}": str(v) for k, v in run.attributes.items()})
     coords = {"t": ("t", t, {"long_name": SERIES["t"][1], "units": SERIES["t"][2]})}
+    if run.fields:
+        for name, values in grid_coordinates(run.grid).items():
+            long_name, units = _COORDINATE_MEANING[name]
+            coords[name] = (name, values, {"long_name": long_name, "units": units})
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
@@ -338,18 +436,20 @@ def read_run(path: str | os.PathLike) -> RunData:
             raise ValueError(f"{path} is not a vesicle run file")
         attributes = {k: _from_attr(v) for k, v in f.attrs.items()}
         parameters = {k: _from_attr(v) for k, v in f["parameters"].attrs.items()}
-        series = {
+        stored = {
             k: f["series"][k][()]
             for k in f["series"]
             if "vesicle_dimension" not in f["series"][k].attrs
         }
+        series = {k: v for k, v in stored.items() if k not in FIELDS}
+        fields = {k: v for k, v in stored.items() if k in FIELDS}
         coefficients = f["shapes"]["coefficients"][()]
         checkpoint = None
         if "checkpoint" in f:
             ck = f["checkpoint"]
             checkpoint = {k: _from_attr(v) for k, v in ck.attrs.items()}
             checkpoint.update({k: ck[k][()] for k in ck})
-    run = RunData(parameters, series, coefficients, checkpoint, attributes)
+    run = RunData(parameters, series, coefficients, checkpoint, attributes, fields)
     stored = attributes.get("checksum")
     if stored is not None and stored != content_checksum(run):
         raise ValueError(

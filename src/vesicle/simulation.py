@@ -20,7 +20,7 @@ import numpy as np
 
 from .analysis import classify_regime, diagnose, summarize
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
-from .io import SERIES, RunData, series_dtype, series_shape, write_run
+from .io import OPTIONAL_SERIES, SERIES, RunData, series_dtype, series_shape, write_run
 from .solver import solve_flow
 from .surface import Shape
 
@@ -42,8 +42,9 @@ def load_parameters(run: RunData) -> RunParameters:
 
 def _new_run(params: RunParameters, shape: Shape) -> RunData:
     parameters = params.to_dict()
+    keep = [k for k in SERIES if params.split_stress or k not in OPTIONAL_SERIES]
     series = {
-        k: np.zeros((0, *series_shape(k, params.degree)), dtype=series_dtype(k)) for k in SERIES
+        k: np.zeros((0, *series_shape(k, params.degree)), dtype=series_dtype(k)) for k in keep
     }
     coefficients = np.zeros((0, params.degree + 1, params.degree + 1), complex)
     return RunData(parameters, series, coefficients)
@@ -52,9 +53,12 @@ def _new_run(params: RunParameters, shape: Shape) -> RunData:
 def _split_stress(ev: Evaluation, params: RunParameters):
     """The stress, ``S^B`` and ``S^V`` of the evaluated shape, solved at the steady tolerances
     (1e-6/1e-7: the parts must add up to the total well below the stress differences of
-    interest); ``(ev's stress, nan, nan)`` when the split was not asked for."""
-    nan = np.full((3, 3), np.nan)
-    if not params.split_stress or params.chi == 0.0:
+    interest); ``(ev's stress, None, None)`` when the split was not asked for (nan at rest,
+    where the chi-normalised parts are undefined)."""
+    if not params.split_stress:
+        return ev.flow.stress, None, None
+    if params.chi == 0.0:
+        nan = np.full((3, 3), np.nan)
         return ev.flow.stress, nan, nan
     r = solve_flow(
         ev.shape,
@@ -95,16 +99,33 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float, params: R
         "volume_correction": state.corrections["volume"],
         "spectrum": d.spectrum,
     }
-    if row.keys() != SERIES.keys():  # the one list of saved series is io.SERIES
+    if s_bending is None:
+        del row["S_bending"], row["S_flow"]
+    expected = SERIES.keys() - (set() if s_bending is not None else set(OPTIONAL_SERIES))
+    if row.keys() != expected:  # the one list of saved series is io.SERIES
         raise RuntimeError(f"saved series {sorted(row)} differ from io.SERIES")
-    for key, value in row.items():
+    for key in sorted(set(row) | set(run.series)):
         old = run.series.get(key)
-        value = np.asarray(value, old.dtype if old is not None else series_dtype(key))
+        if key in row:
+            value = np.asarray(row[key], old.dtype if old is not None else series_dtype(key))
+        else:  # kept by an older file of this run, not recorded now: nan
+            value = np.full(old.shape[1:], np.nan)
         if old is None:  # a file written before this series existed
             old = np.full((run.n_saved, *value.shape), np.nan)
         run.series[key] = np.concatenate([old, value[None]])
     run.coefficients = np.concatenate([run.coefficients, ev.shape.coefficients[None]])
+    if params.save_fields:
+        _append_fields(run, {"sigma": ev.flow.sigma, "velocity": ev.flow.u})
     return d.psi
+
+
+def _append_fields(run: RunData, values: dict[str, np.ndarray]) -> None:
+    """Append one saved step's fields (steps saved before fields were kept are nan)."""
+    for key, value in values.items():
+        old = run.fields.get(key)
+        if old is None:
+            old = np.full((run.n_saved - 1, *value.shape), np.nan)
+        run.fields[key] = np.concatenate([old, np.asarray(value, float)[None]])
 
 
 class _Checkpointer:

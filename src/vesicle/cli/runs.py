@@ -251,6 +251,14 @@ def _check_writable(out: Path, overwrite: bool) -> None:
     help="Also store the bending and flow parts of the stress at saved steps (2 more solves each).",
 )
 @click.option(
+    "--fields/--no-fields",
+    "save_fields",
+    default=_default("save_fields"),
+    show_default=True,
+    help="Store the tension and the membrane velocity on the grid at saved steps (64 kB per "
+    "step at 32x64; --no-fields for very long runs).",
+)
+@click.option(
     "--checkpoint-every",
     type=float,
     default=_default("checkpoint_every"),
@@ -411,11 +419,18 @@ def plot(file, outdir) -> None:
     help="Folder for the VTK time series (surface_*.vtp and surface.pvd).",
 )
 @click.option("--every", type=int, default=1, show_default=True, help="Export every k-th step.")
-def export(file, vtk_dir, every) -> None:
-    """The surface at saved steps as a VTK time series for ParaView."""
+@click.option(
+    "--ascii",
+    "ascii_",
+    is_flag=True,
+    help="Write the arrays as text (default: binary, ~4x smaller).",
+)
+def export(file, vtk_dir, every, ascii_) -> None:
+    """The surface at saved steps as a VTK time series for ParaView (point data: curvature,
+    normal, radius and, when the run kept its fields, tension and velocity)."""
     data = _load(file)
     try:
-        paths = export_vtk(data, vtk_dir, every=every)
+        paths = export_vtk(data, vtk_dir, every=every, encoding="ascii" if ascii_ else "binary")
     except ValueError as err:
         fail(str(err))
     except OSError as err:
