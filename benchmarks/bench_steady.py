@@ -102,7 +102,7 @@ def run() -> dict:
         row, timed = {}, {}
         for path in PATHS:
             timed[path] = _time(path, degree, grid)
-        ref_s, w_ref, ref, _ = timed["reference"]
+        ref_s, w_ref, _, _ = timed["reference"]
         for path, (s, w, r, clock) in timed.items():
             row[path] = {
                 "seconds": s, "ratio": ref_s / s, "solves": r.solves, "jacobians": r.jacobians,
@@ -111,10 +111,12 @@ def run() -> dict:
                 "linearised_jacobians": clock.count, "linearised_seconds": dict(clock.seconds),
             }  # fmt: skip
             pieces = ", ".join(f"{k} {v:.1f} s" for k, v in clock.seconds.items())
-            print(f"  {key} {path}: {s:.1f} s ({ref_s / s:.2f}x), {r.solves} solves, "
-                  f"{r.jacobians} Newton Jacobians, omega ({w[0]:.6f}, {w[1]:.6e}), difference "
-                  f"{row[path]['omega_relative_difference']:.1e}"
-                  + (f"; {clock.count} linearised Jacobians: {pieces}" if clock.count else ""))
+            print(
+                f"  {key} {path}: {s:.1f} s ({ref_s / s:.2f}x), {r.solves} solves, "
+                f"{r.jacobians} Newton Jacobians, omega ({w[0]:.6f}, {w[1]:.6e}), difference "
+                f"{row[path]['omega_relative_difference']:.1e}"
+                + (f"; {clock.count} linearised Jacobians: {pieces}" if clock.count else "")
+            )
         if degree == 8:
             row.update(_continuation_and_critical(timed["linearised"][2]))
         results[key] = row

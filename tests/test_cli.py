@@ -307,3 +307,23 @@ def test_critical_at_low_resolution_against_an_independent_fine_bracket():
         for lam in (lam_c * 0.997, lam_c * 1.003)
     ]
     assert grow[0] < 0 < grow[1]
+
+
+def test_every_option_has_help_and_its_default_is_shown():
+    """Issue 18, item 6: no option without a help text; a default is shown or said."""
+    import click
+
+    from vesicle.cli import main as group
+
+    for name, command in group.commands.items():
+        for p in command.params:
+            if not isinstance(p, click.Option):
+                continue
+            assert p.help, f"{name} {p.opts} has no help text"
+            has_default = p.default not in (None, False) and not p.is_flag and p.required is False
+            if has_default and p.default is not click.core.UNSET:
+                said = p.show_default or "default" in p.help.lower()
+                assert said, f"{name} {p.opts}: default {p.default!r} not shown"
+    help_text = CliRunner().invoke(group, ["run", "--help"]).output
+    assert "'tt'" in help_text and "steady-state file" in help_text
+    assert "-v," not in CliRunner().invoke(group, ["--help"]).output  # --v is the reduced volume

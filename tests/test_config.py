@@ -102,3 +102,28 @@ def test_random_unknown_keys_are_refused_by_name(tmp_path_factory, section, key)
     path.write_text(f"[{section}]\n{key} = 1\n")
     with pytest.raises(ConfigError, match=f"unknown key '{key}'"):
         read_config(path)
+
+
+def test_branch_reads_its_range_and_resolution_from_a_config(tmp_path):
+    """`vesicle branch --config`: [physics] lam = "1:2" is the range, chi and v fixed;
+    [discretisation] the resolution; a typo is refused before any work."""
+    import json
+
+    from click.testing import CliRunner
+
+    from vesicle.cli import main
+
+    path = tmp_path / "b.toml"
+    path.write_text('[physics]\nv = 0.95\nlam = "1:2"\nchi = 1.0\n'
+                    "[discretisation]\ngrid = 12\ndegree = 4\n")  # fmt: skip
+    r = CliRunner().invoke(main, ["branch", "--config", str(path), "--no-locate", "--json"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output.strip().splitlines()[-1])
+    assert [p["lam"] for p in out["points"]] == [1.0, 2.0] and out["grid"] == 12
+    assert out["vesicle_version"] and out["physics"]["chi"] == 1.0
+    path.write_text('[physics]\nlamda = "1:2"\n')
+    r = CliRunner().invoke(main, ["branch", "--config", str(path)])
+    assert r.exit_code != 0 and "lamda" in r.output and "did you mean 'lam'" in r.output
+    path.write_text('[physics]\nlam = "1:x"\n')
+    r = CliRunner().invoke(main, ["branch", "--config", str(path)])
+    assert r.exit_code != 0 and "range/list" in r.output

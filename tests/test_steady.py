@@ -6,10 +6,11 @@ import numpy as np
 import pytest
 
 import vesicle as vs
+from vesicle.critical import _bracket, critical_lambda
 from vesicle.dynamics import RunParameters
 from vesicle.simulation import simulate
 from vesicle.solver import SolverTolerances
-from vesicle.stability import FullBasis, _bracket, critical_lambda, stability
+from vesicle.stability import FullBasis, stability
 from vesicle.steady import NewtonError, SymmetricBasis, steady_tank_treading
 
 

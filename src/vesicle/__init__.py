@@ -9,6 +9,7 @@ except PackageNotFoundError:  # running from a source tree without installation
 
 from .branch import Branch, BranchPoint, SpecialPoint, branch
 from .caches import cache_info, clear_caches
+from .critical import CriticalResult, critical_lambda
 from .flows import LinearFlow
 from .io import open_run
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
@@ -17,7 +18,7 @@ from .problem import SteadyProblem
 from .rheology import ParticleStress
 from .solver import FlowResult, SolverError, solve_flow
 from .sphere.grid import SphereGrid
-from .stability import CriticalResult, StabilityResult, critical_lambda, stability
+from .stability import StabilityResult, stability
 from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .stokes import LayerPotentials, double_layer, single_layer
 from .surface import Shape, ShapeError

@@ -353,13 +353,12 @@ def branch(
         )
         requested = start.physics == tracer.at(values[0])
         tracer.add(_analyse(start, requested=requested))
-        if not requested:
-            tracer.step_to(values[0])
+        remaining = values if not requested else values[1:]
     else:
         tracer.add(_analyse(start, requested=False))
-        tracer.step_to(values[0])
-    try:
-        for value in values[1:]:
+        remaining = values
+    try:  # a stop at the first value too is a stop (a fold right after the start)
+        for value in remaining:
             tracer.step_to(value)
     except _Stop as stop:
         stopped = (
@@ -369,7 +368,13 @@ def branch(
         log.warning("branch stopped: %s", stopped)
     specials = _special_points(tracer, locate, xtol)
     if stopped is not None:  # a fold: located by arclength, else estimated
-        fold = _follow_fold(tracer, xtol, past_fold) if arclength else None
+        fold = None
+        if arclength:
+            try:
+                fold = _follow_fold(tracer, xtol, past_fold)
+            except (ValueError, NewtonError, ShapeError, SolverError, BranchJump) as err:
+                # a step to an impossible parameter (lam < 0), a failed corrector: estimate
+                log.warning("pseudo-arclength could not locate the fold: %s", err)
         if fold is not None:
             stopped = f"{stopped}; the branch folds at {parameter} = {fold.value:.6g}"
         elif len(tracer.path) >= 3:
@@ -438,6 +443,7 @@ def reach(
     legs: int = 4,
     executor: Executor | None = None,
     progress: Callable[[dict], None] | None = None,
+    verify_unstable: bool = False,
     **newton,
 ) -> SteadyResult:
     """The steady TT state at ``physics``: Newton from the default start, or, where that fails,
@@ -446,6 +452,12 @@ def reach(
     The easier points are ``chi = 1`` at the same ``v`` and ``lam``, then ``lam = 1, chi = 1``
     (Newton from the tilted spheroid converges there); the state is then continued in ``lam``
     and in ``chi`` to the target, ``legs`` geometric steps each (halved where a step fails).
+    A state that Newton finds from the default start with a real unstable mode is another
+    branch's (the saddle half of a fold, or a state Newton wandered to: at lam = 3.7, chi = 1,
+    N = 4 it lands on psi = -0.60 with a growth rate 3.7): the continued state replaces it;
+    with ``verify_unstable`` any unstable state is checked so (the first evaluation of a
+    critical-lambda search, which must not start on another branch).  An easier start is used
+    only if it is stable, except the last, ``lam = 1, chi = 1``.
     Every detour is logged and reported to ``progress`` (``{"continuation": text}``); if the
     target cannot be reached the ``NewtonError`` says how far it got.
     """
@@ -455,9 +467,11 @@ def reach(
         direct = steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
     except (NewtonError, ShapeError, SolverError) as err:
         first = err
+    easier = [e for e in (physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0))
+              if e != physics]  # fmt: skip
     if direct is not None:
         w_r, w_i = stability(direct).most_unstable
-        if not (w_i > 0 and w_r <= REAL_TOLERANCE and physics.chi != 1.0):
+        if not (w_i > 0 and (w_r <= REAL_TOLERANCE or verify_unstable) and easier):
             return direct
         # a real unstable mode: possibly the saddle half of a fold (SPEC §16); the state
         # continued from chi = 1 is the one on the branch that is stable below the fold
@@ -470,14 +484,16 @@ def reach(
             progress({"continuation": text})
 
     start = None
-    for easy in (physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0)):
-        if easy == physics:
-            continue
+    for easy in easier:
         try:
             start = steady_tank_treading(easy, disc, executor=executor, **newton)
-            break
         except (NewtonError, ShapeError, SolverError):
             continue
+        if easy is easier[-1] or stability(start).most_unstable[1] < 0:
+            break
+        log.info("the easier start at lam = %g, chi = %g is unstable (Newton may have wandered "
+                 "to another branch): not used", easy.lam, easy.chi)  # fmt: skip
+        start = None
     if start is None:
         if direct is not None:
             return direct

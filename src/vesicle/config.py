@@ -73,9 +73,12 @@ def _check_type(path: Path, section: str, key: str, value) -> None:
         _fail(path, f"[{section}] {key} must be {names}, got {value!r}")
 
 
-def read_config(path: str | Path, sections: tuple[str, ...] = tuple(SECTIONS)) -> dict:
+def read_config(
+    path: str | Path, sections: tuple[str, ...] = tuple(SECTIONS), ranges: tuple[str, ...] = ()
+) -> dict:
     """The tables of a TOML file, checked (see the module docstring); ``sections`` are the
-    tables the caller accepts."""
+    tables the caller accepts; the ``[physics]`` keys in ``ranges`` may also be a range or list
+    as a string (``lam = "1:9"``, ``chi = "0.2,1,6"``: ``vesicle branch``)."""
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text())
@@ -95,9 +98,25 @@ def read_config(path: str | Path, sections: tuple[str, ...] = tuple(SECTIONS)) -
                 hint = difflib.get_close_matches(key, SECTIONS[section], n=1)
                 _fail(path, f"unknown key {key!r} in [{section}]"
                       + (f" (did you mean {hint[0]!r}?)" if hint else ""))  # fmt: skip
+            if section == "physics" and key in ranges and isinstance(value, str):
+                _check_range(path, key, value)
+                continue
             _check_type(path, section, key, value)
-    _validate(path, data)
+    numbers = {**data, "physics": {k: v for k, v in data.get("physics", {}).items()
+                                   if not (k in ranges and isinstance(v, str))}}  # fmt: skip
+    _validate(path, numbers)
     return data
+
+
+def _check_range(path: Path, key: str, text: str) -> None:
+    """A range or list value: numbers separated by ':' (START:STOP[:STEP]) or ','."""
+    try:
+        values = [float(x) for x in text.replace(":", ",").split(",")]
+    except ValueError:
+        values = []
+    if not values or not all(np.isfinite(values)):
+        _fail(path, f"[physics] {key} must be a number or a range/list such as \"1:9\" or "
+              f"\"1,2,4\", got {text!r}")  # fmt: skip
 
 
 def _validate(path: Path, data: dict) -> None:

@@ -58,10 +58,13 @@ __all__ = [
     "SERIES",
     "RunData",
     "content_checksum",
+    "open_file",
     "open_run",
     "read_run",
     "series_dtype",
     "series_shape",
+    "stamp",
+    "write_atomically",
     "write_run",
 ]
 
@@ -294,46 +297,19 @@ def _library_versions() -> dict[str, str]:
     return out
 
 
-def write_run(path: str | os.PathLike, run: RunData) -> Path:
-    """Write ``run`` atomically to ``path`` (HDF5), with its :func:`content_checksum`.
+def write_atomically(path: str | os.PathLike, fill, nbytes: int) -> Path:
+    """Write an HDF5 file by ``fill(h5py.File)`` to ``path.tmp`` and rename it over ``path``.
 
-    The file is written to ``path.tmp`` and renamed over ``path``: an interrupted or failed
-    write (a full disk) leaves the previous file intact and removes the partial one.
+    ``nbytes`` (the arrays' size) is checked against the free space first; an interrupted or
+    failed write (a full disk) leaves the previous file intact and removes the partial one.
+    The one atomic writer of run, steady-state and sweep files.
     """
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    now = datetime.now(UTC).isoformat(timespec="seconds")
-    _check_space(path, run)
+    _check_space(path, nbytes)
     try:
         with h5py.File(tmp, "w") as f:
-            f.attrs["format"] = FORMAT
-            f.attrs["format_version"] = FORMAT_VERSION
-            f.attrs["vesicle_version"] = __version__
-            f.attrs["created"] = run.attributes.get("created", now)
-            f.attrs["updated"] = now
-            f.attrs["checksum"] = content_checksum(run)
-            for key, value in _library_versions().items():
-                f.attrs[key] = value
-            for key, value in run.attributes.items():  # e.g. the command line that made it
-                if key not in _RESERVED:
-                    f.attrs[key] = str(value)
-            params = f.create_group("parameters")
-            for key, value in run.parameters.items():
-                params.attrs[key] = _attr_value(value)
-            series = f.create_group("series")
-            for key, value in run.series.items():
-                series.create_dataset(key, data=np.asarray(value))
-            for key, value in run.fields.items():
-                series.create_dataset(key, data=np.asarray(value))
-            _label_series(series, run)
-            f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
-            if run.checkpoint is not None:
-                ck = f.create_group("checkpoint")
-                for key, value in run.checkpoint.items():
-                    if isinstance(value, np.ndarray):
-                        ck.create_dataset(key, data=value)
-                    else:
-                        ck.attrs[key] = _attr_value(value)
+            fill(f)
             f.flush()
         os.replace(tmp, path)
     except (OSError, RuntimeError) as err:  # HDF5 reports a full disk as a RuntimeError
@@ -346,7 +322,54 @@ def write_run(path: str | os.PathLike, run: RunData) -> Path:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    run.attributes.setdefault("created", now)
+    return path
+
+
+def stamp(f: h5py.File, kind: str, version: int, attributes: dict, checksum: str) -> str:
+    """The root attributes every vesicle file carries: format, versions, times, checksum and
+    the caller's (e.g. the command line); returns the creation time."""
+    now = datetime.now(UTC).isoformat(timespec="seconds")
+    f.attrs["format"] = kind
+    f.attrs["format_version"] = version
+    f.attrs["vesicle_version"] = __version__
+    f.attrs["created"] = attributes.get("created", now)
+    f.attrs["updated"] = now
+    f.attrs["checksum"] = checksum
+    for key, value in _library_versions().items():
+        f.attrs[key] = value
+    for key, value in attributes.items():
+        if key not in _RESERVED:
+            f.attrs[key] = str(value)
+    return str(f.attrs["created"])
+
+
+def write_run(path: str | os.PathLike, run: RunData) -> Path:
+    """Write ``run`` atomically to ``path`` (HDF5), with its :func:`content_checksum`
+    (:func:`write_atomically`)."""
+    created = {}
+
+    def fill(f: h5py.File) -> None:
+        created["at"] = stamp(f, FORMAT, FORMAT_VERSION, run.attributes, content_checksum(run))
+        params = f.create_group("parameters")
+        for key, value in run.parameters.items():
+            params.attrs[key] = _attr_value(value)
+        series = f.create_group("series")
+        for key, value in run.series.items():
+            series.create_dataset(key, data=np.asarray(value))
+        for key, value in run.fields.items():
+            series.create_dataset(key, data=np.asarray(value))
+        _label_series(series, run)
+        f.create_group("shapes").create_dataset("coefficients", data=run.coefficients)
+        if run.checkpoint is not None:
+            ck = f.create_group("checkpoint")
+            for key, value in run.checkpoint.items():
+                if isinstance(value, np.ndarray):
+                    ck.create_dataset(key, data=value)
+                else:
+                    ck.attrs[key] = _attr_value(value)
+
+    path = write_atomically(path, fill, _stored_bytes(run))
+    run.attributes.setdefault("created", created["at"])
     return path
 
 
@@ -356,14 +379,14 @@ def _stored_bytes(run: RunData) -> int:
     return sum(np.asarray(a).nbytes for a in arrays)
 
 
-def _check_space(path: Path, run: RunData) -> None:
+def _check_space(path: Path, nbytes: int) -> None:
     """Refuse a write that cannot fit (the data plus 5 % and 48 kB of HDF5 metadata: a 21-step
     run with fields at 12 x 24 holds 212 kB of arrays in a 242 kB file) before HDF5 runs out of
     space half-way."""
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir():
         return  # the write itself reports it
-    need = int(1.05 * _stored_bytes(run)) + 48 * 1024
+    need = int(1.05 * nbytes) + 48 * 1024
     free = shutil.disk_usage(folder).free
     if free < need:
         raise OSError(
@@ -422,18 +445,26 @@ def open_run(path: str | os.PathLike):
     return xr.Dataset(data, coords=coords, attrs=attrs)
 
 
-def read_run(path: str | os.PathLike) -> RunData:
-    """Load a run file written by :func:`write_run`."""
+def open_file(path: str | os.PathLike, kind: str, what: str) -> h5py.File:
+    """``path`` opened for reading, if it is an HDF5 file of format ``kind`` (else a
+    ``FileNotFoundError`` or ``ValueError`` naming ``what`` it should have been)."""
     path = Path(path)
     if not path.exists():
-        raise FileNotFoundError(f"no run file at {path}")
+        raise FileNotFoundError(f"no {what} at {path}")
     try:
         f = h5py.File(path, "r")
     except OSError as err:
         raise ValueError(f"{path} is not a readable HDF5 file: {err}") from None
-    with f:
-        if _from_attr(f.attrs.get("format")) != FORMAT:
-            raise ValueError(f"{path} is not a vesicle run file")
+    if _from_attr(f.attrs.get("format")) != kind:
+        f.close()
+        raise ValueError(f"{path} is not a vesicle {what}")
+    return f
+
+
+def read_run(path: str | os.PathLike) -> RunData:
+    """Load a run file written by :func:`write_run`."""
+    path = Path(path)
+    with open_file(path, FORMAT, "run file") as f:
         attributes = {k: _from_attr(v) for k, v in f.attrs.items()}
         parameters = {k: _from_attr(v) for k, v in f["parameters"].attrs.items()}
         stored = {

@@ -208,10 +208,9 @@ def simulate(
 
 def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
     eps = 1e-12 * max(params.t_end, 1.0)
-    psi = float(run.series["psi"][-1]) if run.n_saved else float("nan")
     while True:
         if state.t >= state.next_save - eps:
-            psi = _record(run, current, state, state.last_dt, params)
+            _record(run, current, state, state.last_dt, params)
             state.next_save = state.t + params.save_every
         if state.t >= params.t_end - eps or _should_stop(params, run, current):
             # the final state is saved even between save times (t_end or an early stop)
@@ -249,7 +248,7 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
                 {
                     "t": state.t,
                     "dt": dt,
-                    "psi": psi,
+                    "psi": diagnose(current.shape).psi,  # now, not at the last save
                     "steps": state.steps,
                     "rejected": state.rejected,
                     "outer": current.flow.outer_iterations,

@@ -16,14 +16,11 @@ from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
 
-from .parameters import Discretisation, Physics
 from .sphere.bases import FullBasis
-from .steady import NewtonError, SteadyResult, steady_tank_treading
-from .theory import misbah_critical_lambda
+from .steady import SteadyResult
 
-__all__ = ["CriticalResult", "FullBasis", "StabilityResult", "critical_lambda", "stability"]
+__all__ = ["FullBasis", "StabilityResult", "stability"]
 
 log = logging.getLogger(__name__)
 
@@ -77,127 +74,3 @@ def stability(
     )
     log.info("most unstable %s mode: omega = (%.4g, %.4g)", modes, *omega[0])
     return StabilityResult(omega, shapes, modes)
-
-
-def _bracket(f, x0: float, step: float, factor: float, moves: int = 12) -> tuple[float, float]:
-    """Two neighbouring points where ``f`` (increasing through its root, as the growth rate in
-    lambda) changes sign: ``x0``, ``x0`` moved by the relative ``step`` towards the root, then
-    secant steps in ``log x`` pushed 20 % past the predicted root and capped at ``factor``."""
-    if not step > 0 or not factor > 1:
-        raise ValueError(f"need step > 0 and factor > 1, got step={step}, factor={factor}")
-    points = [(x0, f(x0))]
-    x = x0 * (1.0 + step) if points[0][1] < 0 else x0 / (1.0 + step)
-    points.append((x, f(x)))
-    for _ in range(moves):
-        (x0, f0), (x1, f1) = points[-2:]
-        if f0 * f1 <= 0:
-            break
-        direction = 1.0 if f1 < 0 else -1.0  # below the root: go up
-        u0, u1 = np.log(x0), np.log(x1)
-        move = -1.2 * f1 * (u1 - u0) / (f1 - f0) if f1 != f0 else np.inf
-        if not move * direction > 0:  # the secant points away from the root
-            move = direction * np.log(factor)
-        move = direction * min(abs(move), np.log(factor))
-        x = float(np.exp(u1 + move))
-        points.append((x, f(x)))
-    (x0, f0), (x1, f1) = points[-2:]
-    if f0 * f1 > 0:
-        raise RuntimeError(
-            "could not bracket lambda_c: max omega_I did not change sign at lam = "
-            + ", ".join(f"{p[0]:.4g}" for p in points)
-        )
-    return min(x0, x1), max(x0, x1)
-
-
-def _critical_objects(physics, discretisation, degree, grid, v, chi):
-    """The parameter objects of either call form of :func:`critical_lambda`."""
-    sizes = {k: x for k, x in (("grid", grid), ("degree", degree)) if x is not None}
-    if isinstance(physics, Physics):
-        if v is not None or chi is not None:
-            raise ValueError("give the physics as a Physics object or as v, chi, not both")
-        return physics, discretisation if discretisation is not None else Discretisation(**sizes)
-    v = physics if physics is not None else v
-    chi = discretisation if discretisation is not None else chi
-    if v is None or chi is None:
-        raise TypeError("critical_lambda needs Physics (and Discretisation), or v and chi")
-    return Physics(v=v, chi=chi), Discretisation(**sizes)
-
-
-@dataclass(frozen=True)
-class CriticalResult:
-    """``lambda_c`` where the largest ``omega_I`` crosses zero, and the bifurcation type."""
-
-    lambda_c: float
-    bifurcation: str  # "saddle-node" (real crossing) or "hopf" (complex pair)
-    omega_R: float
-    history: tuple[tuple[float, float, float], ...]  # (lam, omega_R, omega_I) evaluated
-
-
-def critical_lambda(
-    physics: Physics | float | None = None,
-    discretisation: Discretisation | float | None = None,
-    degree: int | None = None,
-    grid: int | None = None,
-    lam0: float | None = None,
-    step: float = 0.05,
-    factor: float = 1.5,
-    xtol: float = 1e-3,
-    executor: Executor | None = None,
-    progress=None,
-    max_iterations: int | None = None,
-    *,
-    v: float | None = None,
-    chi: float | None = None,
-    jacobian: str = "linearised",
-) -> CriticalResult:
-    """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
-
-    Called as ``critical_lambda(physics, discretisation)`` (``physics.lam`` is not used: it is
-    what is sought) or as ``critical_lambda(v, chi, degree=8, grid=32)``.
-
-    Starts at ``lam0`` (default: the leading-order estimate, at least 1) and at ``lam0`` moved
-    by the relative ``step`` towards the crossing (up when stable); then secant steps in
-    ``log lam``, pushed 20 % past the predicted root and limited to a factor ``factor``, until
-    ``max omega_I`` changes sign; then Brent's method to ``xtol``.  Each evaluation starts
-    Newton (at most ``max_iterations`` iterations) from the nearest solution found so far, with
-    chord iterations on its Jacobian (:func:`steady_tank_treading`), so a nearby evaluation
-    costs little more than the stability Jacobian itself.
-    """
-    physics, discretisation = _critical_objects(physics, discretisation, degree, grid, v, chi)
-    history: list[tuple[float, float, float]] = []
-    solutions: dict[float, SteadyResult] = {}
-
-    def growth(lam: float) -> float:
-        for done, _, w_i in history:  # Brent re-evaluates the bracket's ends: reuse them
-            if done == lam:
-                return w_i
-        start = None
-        if solutions:
-            nearest = min(solutions, key=lambda x: abs(np.log(x / lam)))
-            start = solutions[nearest]
-        try:
-            steady = steady_tank_treading(
-                physics.replace(lam=lam),
-                discretisation,
-                initial=start,
-                executor=executor,
-                progress=progress,
-                max_iterations=max_iterations,
-                jacobian=jacobian,
-            )
-        except NewtonError as err:
-            raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err
-        solutions[lam] = steady
-        w_r, w_i = stability(steady).most_unstable
-        history.append((lam, w_r, w_i))
-        log.info("lam = %.5g: omega = (%.4g, %.4g)", lam, w_r, w_i)
-        if progress is not None:
-            progress({"lam": lam, "omega_R": w_r, "omega_I": w_i})
-        return w_i
-
-    lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(physics.v))
-    lo, hi = _bracket(growth, lam, step, factor)
-    lam_c = brentq(growth, lo, hi, xtol=xtol)
-    nearest = min(history, key=lambda h: abs(h[0] - lam_c))
-    kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"
-    return CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history))

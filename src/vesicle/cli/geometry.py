@@ -13,7 +13,7 @@ from ..sphere.rotation import rotation_matrix
 from ..stokes import LayerPotentials
 from ..surface import Shape, ShapeError
 from .base import fail as _fail
-from .base import main
+from .base import main, with_version
 from .options import discretisation_options, physics_options
 
 
@@ -66,7 +66,7 @@ def shape(ellipsoid, v, grid, degree, as_json) -> None:
         _fail(str(err))
     summary = shape_summary(s)
     if as_json:
-        click.echo(json.dumps(summary))
+        click.echo(json.dumps(with_version(summary, grid=grid, degree=s.degree)))
         return
     rows = [
         ("grid", f"{grid} x {2 * grid}"),
@@ -167,7 +167,7 @@ def solve(shape_spec, tilt, grid, degree, steady, split, as_json, **options) -> 
     if split and result.split:
         out.update({k: v.summary() for k, v in result.split.items()})
     if as_json:
-        click.echo(json.dumps(out))
+        click.echo(json.dumps(with_version(out, physics=physics)))
         return
     for key, value in out.items():
         click.echo(f"{key:<22} {value}")

@@ -5,9 +5,9 @@ from __future__ import annotations
 import csv
 import json
 import os
-import shlex
 import signal
 import sys
+import time
 from pathlib import Path
 
 import click
@@ -18,13 +18,16 @@ from ..config import read_config, solver_from, to_toml
 from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
 from ..io import SERIES, RunData, read_run
 from ..parameters import SolverTolerances
+from ..phase_plots import is_neutral_file, plot_neutral
 from ..plots import plot_run
 from ..simulation import SimulationError, load_parameters, simulate
 from ..solver import SolverError
 from ..steady import NewtonError, steady_tank_treading
+from ..steady_io import is_steady_file, read_steady
+from ..steady_plots import plot_steady
 from ..surface import ShapeError
 from ..vtk import export_vtk
-from .base import fail, main
+from .base import command_line, fail, main, with_version
 from .options import (
     apply_config,
     config_option,
@@ -58,7 +61,8 @@ def _load(path: str) -> RunData:
 
 
 def _start_shape(init: str, physics, discretisation):
-    """``spheroid``, ``tt`` (the steady tank-treading shape by Newton) or ``FILE[:INDEX]``."""
+    """``spheroid``, ``tt`` (the steady tank-treading shape by Newton), a steady-state file of
+    ``vesicle tt --out`` (its shape, no Newton) or ``FILE[:INDEX]`` of a run file."""
     if init == "spheroid":
         return None
     if init == "tt":
@@ -68,7 +72,10 @@ def _start_shape(init: str, physics, discretisation):
             fail(f"--init tt: {err}")
     path, _, index = init.partition(":")
     if not Path(path).exists():
-        fail(f"--init must be 'spheroid' or FILE[:INDEX] of a run file; {path!r} does not exist")
+        fail(f"--init must be 'spheroid', 'tt', a steady-state file or FILE[:INDEX] of a run "
+             f"file; {path!r} does not exist")  # fmt: skip
+    if is_steady_file(path):
+        return _steady_start(path, physics, discretisation)
     run = _load(path)
     try:
         return run.shape(int(index) if index else -1)
@@ -76,27 +83,56 @@ def _start_shape(init: str, physics, discretisation):
         fail(f"no saved step {index!r} in {path} ({run.n_saved} saved)")
 
 
+def _steady_start(path: str, physics, discretisation):
+    """The shape of a steady-state file, checked against the run it starts."""
+    try:
+        steady = read_steady(path)
+    except ValueError as err:
+        fail(str(err))
+    if steady.physics.v != physics.v:
+        fail(f"--init {path}: its state has v = {steady.physics.v:g}, the run asks for "
+             f"v = {physics.v:g}")  # fmt: skip
+    if steady.discretisation.degree != discretisation.degree:
+        fail(
+            f"--init {path}: its state has degree {steady.discretisation.degree}, the run "
+            f"asks for {discretisation.degree} (give --degree {steady.discretisation.degree})"
+        )
+    return steady.shape.with_grid(discretisation.grid)
+
+
 class _Bar:
+    """Progress of a run: a tqdm bar on a terminal; on anything else (a log file, a batch
+    system) a plain line every tenth of the run or every ``PLAIN_EVERY`` seconds."""
+
+    PLAIN_EVERY = 60.0
+
     def __init__(self, t0: float, t_end: float, enabled: bool):
+        terminal = sys.stderr.isatty()
+        self.plain = enabled and not terminal
         self.bar = tqdm(
             total=t_end,
             initial=t0,
             unit="t",
-            disable=not enabled,
+            disable=not (enabled and terminal),
             file=sys.stderr,
             bar_format="{l_bar}{bar}| t={n:.4f}/{total:g} [{elapsed}<{remaining}] {postfix}",
         )
-        self.t = t0
+        self.t, self.t0, self.t_end = t0, t0, t_end
+        self.next_mark = t0 + 0.1 * (t_end - t0)
+        self.last_line = time.monotonic()
 
     def __call__(self, info: dict) -> None:
         self.bar.update(info["t"] - self.t)
         self.t = info["t"]
-        self.bar.set_postfix_str(
-            f"dt={info['dt']:.1e} psi={info['psi']:+.4f} "
-            f"GMRES {info['outer']}/{info['inner']} "
-            f"rejected={info['rejected']}",
-            refresh=False,
-        )
+        text = (f"dt={info['dt']:.1e} psi={info['psi']:+.4f} GMRES {info['outer']}/"
+                f"{info['inner']} rejected={info['rejected']}")  # fmt: skip
+        self.bar.set_postfix_str(text, refresh=False)
+        now = time.monotonic()
+        if self.plain and (self.t >= self.next_mark or now - self.last_line >= self.PLAIN_EVERY):
+            click.echo(f"t={self.t:.4f}/{self.t_end:g} steps={info['steps']} {text}", err=True)
+            self.last_line = now
+            while self.next_mark <= self.t:
+                self.next_mark += 0.1 * (self.t_end - self.t0)
 
 
 def _sigterm(*_) -> None:
@@ -104,7 +140,7 @@ def _sigterm(*_) -> None:
 
 
 #: Options that ``--resume`` may be given with (everything else is the stored run's).
-_RESUME_OPTIONS = {"resume", "t_end", "plot", "progress", "overwrite", "write_config"}
+_RESUME_OPTIONS = {"resume", "t_end", "plot", "progress", "overwrite", "write_config", "as_json"}
 
 
 def _refuse_changes_on_resume(ctx: click.Context, path: str) -> None:
@@ -162,20 +198,6 @@ def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> Non
     click.echo(f"wrote {path}", err=True)
 
 
-def _command_line(ctx: click.Context) -> str:
-    """The command as given: its path and the options set on the command line."""
-    parts = [ctx.command_path]
-    for name, value in ctx.params.items():
-        if ctx.get_parameter_source(name) != click.core.ParameterSource.COMMANDLINE:
-            continue
-        option = "--" + name.replace("_", "-")
-        if isinstance(value, bool):
-            parts.append(option if value or name.startswith("no_") else f"--no-{option[2:]}")
-        else:
-            parts.append(f"{option} {shlex.quote(str(value))}")
-    return " ".join(parts)
-
-
 def _check_writable(out: Path, overwrite: bool) -> None:
     """Refuse, before any work, an output the run could not write or would silently replace."""
     folder = out.parent if str(out.parent) else Path(".")
@@ -193,13 +215,21 @@ def _check_writable(out: Path, overwrite: bool) -> None:
 @main.command()
 @physics_options()
 @click.option("--t-end", type=float, default=_default("t_end"), show_default=True, help="End time.")
-@click.option("--out", type=click.Path(dir_okay=False), default="run.h5", show_default=True)
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False),
+    default="run.h5",
+    show_default=True,
+    help="The run file (HDF5: series, shapes, fields, checkpoint; vesicle.open_run reads it).",
+)
 @discretisation_options()
 @click.option(
     "--init",
     default="spheroid",
     show_default=True,
-    help="'spheroid' (of --v, long axis x) or FILE[:INDEX] (a saved step of a run).",
+    help="'spheroid' (of --v, long axis x); 'tt' (the steady tank-treading shape, by Newton); "
+    "a steady-state file of 'vesicle tt --out' (its shape, no Newton); or FILE[:INDEX] (a "
+    "saved step of a run).",
 )
 @click.option(
     "--tilt",
@@ -291,8 +321,16 @@ def _check_writable(out: Path, overwrite: bool) -> None:
     show_default=True,
     help="Write the figures next to the output file at the end.",
 )
-@click.option("--progress/--no-progress", default=True, show_default=True)
+@click.option(
+    "--progress/--no-progress",
+    default=True,
+    show_default=True,
+    help="A progress bar on a terminal (periodic plain lines when stderr is not one).",
+)
 @click.option("--overwrite", is_flag=True, help="Replace an existing output file.")
+@click.option(
+    "--json", "as_json", is_flag=True, help="The run's summary (vesicle analyze --json) on stdout."
+)
 @config_option
 @click.option(
     "--write-config",
@@ -302,7 +340,9 @@ def _check_writable(out: Path, overwrite: bool) -> None:
     "commented TOML file, and stop.",
 )
 @click.pass_context
-def run(ctx, resume, plot, progress, overwrite, config_path, write_config, **options) -> None:
+def run(
+    ctx, resume, plot, progress, overwrite, as_json, config_path, write_config, **options
+) -> None:
     """Time-dependent simulation of a vesicle in shear (writes an HDF5 run file)."""
     signal.signal(signal.SIGTERM, _sigterm)
     if write_config is not None:
@@ -325,7 +365,7 @@ def run(ctx, resume, plot, progress, overwrite, config_path, write_config, **opt
     except (ValueError, TypeError, ShapeError) as err:
         fail(str(err))
     t0 = float(data.checkpoint["t"]) if data is not None and data.checkpoint else 0.0
-    command = _command_line(ctx)
+    command = command_line(ctx)
     if data is not None:
         data.attributes["resumed_by"] = command
     bar = _Bar(t0, params.t_end, progress)
@@ -361,6 +401,8 @@ def run(ctx, resume, plot, progress, overwrite, config_path, write_config, **opt
         except OSError as err:
             fail(f"the run is complete in {out}, but its figures could not be written: {err}")
         click.echo(f"figures in {Path(out).with_suffix('')}/ ({len(figures)} files)", err=True)
+    if as_json:
+        click.echo(json.dumps(with_version({"file": str(out), **summary})))
 
 
 @main.command()
@@ -383,7 +425,8 @@ def analyze(file, as_json, as_csv) -> None:
         return
     summary = summarize(data)
     if as_json:
-        click.echo(json.dumps(summary))
+        made_by = {"file_vesicle_version": str(data.attributes.get("vesicle_version", "?"))}
+        click.echo(json.dumps(with_version({**made_by, **summary})))
         return
     for key, value in summary.items():
         if key != "parameters":
@@ -398,11 +441,46 @@ def analyze(file, as_json, as_csv) -> None:
     type=click.Path(file_okay=False),
     help="Folder for the PNG files (default: FILE without its suffix).",
 )
-def plot(file, outdir) -> None:
-    """PNG figures of a run: psi(t), D(t), S(t), D-psi orbit, shape projections, axes."""
+@click.option(
+    "--with",
+    "others",
+    multiple=True,
+    type=click.Path(exists=True, dir_okay=False),
+    help="Further neutral-curve files drawn on the same phase diagram (repeatable).",
+)
+def plot(file, outdir, others) -> None:
+    """PNG figures of a run (psi(t), D(t), S(t), D-psi orbit, shape projections, axes), of a
+    steady-state file of ``vesicle tt --out`` (spectrum_eigenvalues, spectrum_El,
+    eigenmode_1, eigenmode_2) or of neutral curves of ``vesicle neutral --out``
+    (phase_diagram)."""
+    folder = outdir or Path(file).with_suffix("")
+    if is_neutral_file(file):
+        bad = [f for f in others if not is_neutral_file(f)]
+        if bad:
+            fail(f"--with takes neutral-curve files; {bad[0]} is not one")
+        try:
+            paths = plot_neutral([json.loads(Path(f).read_text()) for f in (file, *others)],
+                                 folder)  # fmt: skip
+        except OSError as err:
+            fail(f"cannot write the figures: {err}")
+        for p in paths:
+            click.echo(str(p))
+        return
+    if others:
+        fail("--with goes with a neutral-curve file")
+    if is_steady_file(file):
+        try:
+            paths = plot_steady(read_steady(file), folder)
+        except ValueError as err:
+            fail(str(err))
+        except OSError as err:
+            fail(f"cannot write the figures: {err}")
+        for p in paths:
+            click.echo(str(p))
+        return
     data = _load(file)
     try:
-        paths = plot_run(data, outdir or Path(file).with_suffix(""))
+        paths = plot_run(data, folder)
     except OSError as err:
         fail(f"cannot write the figures: {err}")
     for p in paths:

@@ -8,16 +8,20 @@ import sys
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..branch import branch, parse_values, reach
 from ..config import read_config
+from ..critical import critical_lambda, critical_summary
+from ..neutral import neutral_curve
 from ..parallel import executor
 from ..parameters import Physics
 from ..problem import JACOBIANS
 from ..solver import SolverError
-from ..stability import critical_lambda, stability
+from ..stability import stability
 from ..steady import UPDATES, NewtonError
-from .base import fail, main
+from ..steady_io import steady_summary, write_steady
+from .base import command_line, fail, main, with_version
 from .options import (
     apply_config,
     config_option,
@@ -66,6 +70,13 @@ _UPDATES = click.option(
 )
 
 
+_WORKERS = click.option(
+    "--workers",
+    type=int,
+    default=1,
+    show_default=True,
+    help="Processes for finite-difference Jacobian columns (--jacobian differences).",
+)
 _JACOBIAN = click.option(
     "--jacobian",
     type=click.Choice(JACOBIANS),
@@ -82,23 +93,37 @@ _JACOBIAN = click.option(
 @discretisation_options()
 @click.option("--stability", "with_stability", is_flag=True, help="Eigenvalues of the state.")
 @click.option(
-    "--modes", type=click.Choice(["symmetric", "general"]), default="symmetric", show_default=True
+    "--modes",
+    type=click.Choice(["symmetric", "general"]),
+    default="symmetric",
+    show_default=True,
+    help="Perturbations analysed: the steady state's symmetry class, or all (the full basis).",
 )
 @_MAX_ITERATIONS
 @_UPDATES
 @_JACOBIAN
-@click.option(
-    "--workers", type=int, default=1, show_default=True, help="Processes for the Jacobian columns."
-)
+@_WORKERS
 @_SCHEDULER
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Write the state, its Jacobian and (with --stability) all eigenvalues and modes to this "
+    "HDF5 file (vesicle run --init FILE starts from it; vesicle plot FILE draws the spectrum).",
+)
+@click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
 def tt(
-    ctx, with_stability, modes, max_iterations, updates, jacobian, workers, scheduler, as_json,
-    config_path, **options,
+    ctx, with_stability, modes, max_iterations, updates, jacobian, workers, scheduler, out,
+    overwrite, as_json, config_path, **options,
 ) -> None:  # fmt: skip
     """Steady tank-treading shape by Newton (and its linear stability)."""
+    if out is not None:
+        _writable(Path(out))
+        if Path(out).exists() and not overwrite:
+            fail(f"{out} exists; give --overwrite to replace it")
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
@@ -113,39 +138,12 @@ def tt(
                 jacobian=jacobian,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
+        if out is not None:
+            write_steady(out, r, s, attributes={"command": command_line(ctx)})
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
-    out = {
-        "v": physics.v,
-        "lam": physics.lam,
-        "chi": physics.chi,
-        "flow_type": physics.flow.name,
-        "degree": disc.degree,
-        "grid": disc.grid,
-        "physics": physics.to_dict(),
-        "discretisation": disc.to_dict(),
-        "psi": r.psi,
-        "D": r.D,
-        "axes": r.axes.tolist(),
-        **r.stress.summary(),
-        "bending": r.split["bending"].summary(),
-        "flow": r.split["flow"].summary(),
-        "newton_iterations": r.newton_iterations,
-        "jacobians": r.jacobians,
-        "updates": updates,
-        "jacobian": jacobian,
-        "residual": r.residual,
-        "residual_history": list(r.residual_history),
-        "multipliers": list(r.multipliers),
-        "solves": r.solves,
-        "seconds": r.seconds,
-    }
-    if s is not None:
-        w_r, w_i = s.most_unstable
-        out.update(
-            {"modes": modes, "omega_R": w_r, "omega_I": w_i, "eigenvalues": s.omega.tolist()}
-        )
-    _print(out, as_json)
+    summary = {**steady_summary(r, s), "updates": updates, "jacobian": jacobian}
+    _print(summary, as_json)
 
 
 @main.command()
@@ -162,7 +160,7 @@ def tt(
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
 @_MAX_ITERATIONS
 @_JACOBIAN
-@click.option("--workers", type=int, default=1, show_default=True)
+@_WORKERS
 @_SCHEDULER
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
@@ -189,22 +187,7 @@ def critical(
             )
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
-    _print(
-        {
-            "v": physics.v,
-            "chi": physics.chi,
-            "degree": disc.degree,
-            "grid": disc.grid,
-            "physics": {k: x for k, x in physics.to_dict().items() if k != "lam"},
-            "discretisation": disc.to_dict(),
-            "lambda_c": c.lambda_c,
-            "bifurcation": c.bifurcation,
-            "omega_R": c.omega_R,
-            "jacobian": jacobian,
-            "history": [list(h) for h in c.history],
-        },
-        as_json,
-    )
+    _print({**critical_summary(c, physics, disc), "jacobian": jacobian}, as_json)
 
 
 def _print(out: dict, as_json: bool) -> None:
@@ -293,7 +276,7 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     help="Arclength steps beyond a fold, on the unstable side.",
 )
 @_JACOBIAN
-@click.option("--workers", type=int, default=1, show_default=True)
+@_WORKERS
 @_SCHEDULER
 @click.option(
     "--out",
@@ -302,10 +285,29 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     help="Write the branch as JSON to this file.",
 )
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, jacobian, workers,
-                   scheduler, out, as_json, **options) -> None:  # fmt: skip
-    """Continue steady tank-treading in lam, chi or v, with its stability and special points."""
-    name, values, fixed = _branch_parameters({"v": v, "lam": lam, "chi": chi}, step)
+@config_option
+@click.pass_context
+def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, jacobian,
+                   workers, scheduler, out, as_json, config_path, **options) -> None:  # fmt: skip
+    """Continue steady tank-treading in lam, chi or v, with its stability and special points.
+
+    With --config, the file's [physics] gives the values of --v/--lam/--chi not given on the
+    command line (a range or list as a string, e.g. lam = "1:9") and [discretisation] the
+    resolution."""
+    texts = {"v": v, "lam": lam, "chi": chi}
+    if config_path is not None:
+        try:
+            config = read_config(config_path, sections=("physics", "discretisation"),
+                                 ranges=("v", "lam", "chi"))  # fmt: skip
+        except ValueError as err:
+            fail(str(err))
+        for key in texts:
+            given = ctx.get_parameter_source(key) == click.core.ParameterSource.COMMANDLINE
+            if not given and key in config.get("physics", {}):
+                texts[key] = str(config["physics"][key])
+        config["physics"] = {k: x for k, x in config.get("physics", {}).items() if k not in texts}
+        apply_config(ctx, options, config)
+    name, values, fixed = _branch_parameters(texts, step)
     try:
         physics = make_physics(options, **{**fixed, name: values[0]})
         disc = make_discretisation(options)
@@ -319,13 +321,9 @@ def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, jacobi
                        progress=_echo_progress)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
-    result = b.to_dict()
-    if out is not None:
-        tmp = Path(str(out) + ".tmp")
-        tmp.write_text(json.dumps(result, indent=1))
-        tmp.replace(out)
-    if as_json:
-        click.echo(json.dumps(result))
+    fixed = {k: x for k, x in physics.to_dict().items() if k != name}
+    result = with_version(b.to_dict(), physics=fixed, discretisation=disc)
+    if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
         click.echo(
@@ -339,7 +337,102 @@ def branch_command(v, lam, chi, step, xtol, locate, arclength, past_fold, jacobi
         click.echo(f"stopped: {b.stopped}", err=True)
 
 
+def _emit_json(result: dict, out: str | None, as_json: bool) -> bool:
+    """Write ``result`` to ``out`` (atomically) and print it with ``--json``; returns whether
+    it was printed (then nothing else is)."""
+    if out is not None:
+        tmp = Path(str(out) + ".tmp")
+        tmp.write_text(json.dumps(result, indent=1))
+        tmp.replace(out)
+    if as_json:
+        click.echo(json.dumps(result))
+    return as_json
+
+
 def _writable(path: Path) -> None:
     folder = path.parent if str(path.parent) else Path(".")
     if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
         fail(f"cannot write {path}: the folder {folder} does not exist or is not writable")
+
+
+def _chi_values(text: str, points: int | None) -> list[float]:
+    """``--chi``: a list ``0.2,1,6``, or a range ``0.1:10`` with ``--points K`` (log-spaced)."""
+    text = str(text).strip()
+    if ":" in text:
+        try:
+            lo, hi = (float(x) for x in text.split(":"))
+        except ValueError:
+            fail(f"--chi range must be LOW:HIGH (with --points), got {text!r}")
+        if not (0 < lo < hi and np.isfinite(hi)):
+            fail(f"--chi range must satisfy 0 < LOW < HIGH, got {text!r}")
+        k = 10 if points is None else points
+        if k < 2:
+            fail(f"--points must be at least 2, got {k}")
+        return [float(x) for x in np.geomspace(lo, hi, k)]
+    if points is not None:
+        fail("--points goes with a --chi range LOW:HIGH")
+    try:
+        values = [float(x) for x in text.split(",")]
+    except ValueError:
+        fail(f"--chi must be a list (0.2,1,6) or a range (0.1:10), got {text!r}")
+    if any(not (x > 0 and np.isfinite(x)) for x in values):
+        fail(f"--chi values must be positive, got {text!r}")
+    return values
+
+
+@main.command("neutral")
+@physics_options(("v", "flow"))
+@click.option(
+    "--chi",
+    "chi_text",
+    default="0.1:10",
+    show_default=True,
+    help="Shear rates: a list (0.2,1,6) or a range LOW:HIGH, log-spaced with --points.",
+)
+@click.option("--points", type=int, default=None,
+              help="Points of a --chi range [default: 10].")  # fmt: skip
+@discretisation_options()
+@click.option("--xtol", type=float, default=1e-3, show_default=True,
+              help="Absolute tolerance of each lambda_c.")  # fmt: skip
+@click.option(
+    "--type-tol",
+    type=float,
+    default=0.02,
+    show_default=True,
+    help="Relative width in chi to which a change of bifurcation type is located.",
+)
+@click.option("--no-type-change", is_flag=True, help="Do not locate the change of type.")
+@_JACOBIAN
+@_WORKERS
+@_SCHEDULER
+@click.option("--out", type=click.Path(dir_okay=False), default=None,
+              help="Write the curve as JSON to this file.")  # fmt: skip
+@click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+@config_option
+@click.pass_context
+def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, jacobian, workers,
+                    scheduler, out, as_json, config_path, **options) -> None:  # fmt: skip
+    """Neutral curve lambda_c(chi) at fixed v: the critical point continued in chi, with the
+    bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
+    chis = _chi_values(chi_text, points)
+    if out is not None:
+        _writable(Path(out))
+    try:
+        _configure(ctx, options, config_path)
+        physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
+        with _executor(workers, scheduler) as pool:
+            curve = neutral_curve(physics, chis, disc, xtol=xtol, type_tol=type_tol,
+                                  locate_type_change=not no_type_change, progress=_echo_progress,
+                                  jacobian=jacobian, executor=pool)  # fmt: skip
+    except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
+        fail(str(err))
+    result = curve.to_dict()
+    if _emit_json(result, out, as_json):
+        return
+    for p in result["points"]:
+        click.echo(f"chi={p['chi']:<10.5g} lambda_c={p['lambda_c']:<10.6g} {p['bifurcation']:<12} "
+                   f"omega_R={p['omega_R']:.4g}")  # fmt: skip
+    if result["type_change"]:
+        t = result["type_change"]
+        click.echo(f"type change at chi = {t['chi']:.4g} (lambda_c = {t['lambda_c']:.5g}): "
+                   f"{t['below']} below, {t['above']} above")  # fmt: skip

@@ -1,0 +1,90 @@
+"""Dask: finite-difference Jacobian columns and sweep points on a LocalCluster of 1 and 2 workers.
+
+Same inputs, same run: the serial path, then a ``LocalCluster`` (one-thread worker processes) of
+1 and 2 workers through the same code (``vesicle.parallel.executor``, ``vesicle.sweep``).
+Reported: wall times and the speed-up over serial (the cluster's start-up is included for the
+sweep, as a user pays it; not for the Jacobian, timed on a running cluster).
+"""
+
+from __future__ import annotations
+
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import vesicle as vs
+from vesicle.parallel import executor
+from vesicle.steady import NEWTON_TOLERANCES, initial_guess
+from vesicle.sweep import read_sweep_config, run_sweep
+
+SWEEP = """[sweep]
+task = "stability"
+out = "s.h5"
+[grid]
+v = [0.95]
+lam = [1.0, 2.0, 4.0, 6.0]
+chi = [1.0]
+[discretisation]
+degree = 4
+grid = 16
+"""
+
+
+def _jacobian(workers: int | None, degree=6, grid=24) -> tuple[float, np.ndarray]:
+    p = vs.Physics(v=0.95, lam=8.0, chi=10.0)
+    d = vs.Discretisation(grid, degree)
+    P = vs.SteadyProblem(p, d, NEWTON_TOLERANCES, jacobian_method="differences")
+    a = initial_guess(p, d)
+    base, flow = P.adot(a)
+    if workers is None:
+        t0 = time.perf_counter()
+        M, _ = P.jacobian(a, base, flow.sigma)
+        return time.perf_counter() - t0, M
+    with executor(workers, "local") as pool:
+        t0 = time.perf_counter()
+        M, _ = P.jacobian(a, base, flow.sigma, executor=pool)
+        return time.perf_counter() - t0, M
+
+
+def _sweep(workers: int) -> float:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "s.toml"
+        path.write_text(SWEEP)
+        t0 = time.perf_counter()
+        store = run_sweep(read_sweep_config(path), workers=workers)
+        seconds = time.perf_counter() - t0
+        assert store.status()["done"] == 4
+    return seconds
+
+
+def _sweep_serial() -> float:
+    t0 = time.perf_counter()
+    for lam in (1.0, 2.0, 4.0, 6.0):
+        r = vs.steady_tank_treading(vs.Physics(v=0.95, lam=lam, chi=1.0), vs.Discretisation(16, 4))
+        vs.stability(r)
+    return time.perf_counter() - t0
+
+
+def run() -> dict:
+    out = {}
+    serial, M0 = _jacobian(None)
+    out["jacobian_serial_s"] = serial
+    for workers in (1, 2):
+        seconds, M = _jacobian(workers)
+        out[f"jacobian_dask_{workers}_s"] = seconds
+        out[f"jacobian_dask_{workers}_identical"] = bool(np.array_equal(M, M0))
+        print(f"  FD Jacobian N=6 24x48 (25 columns): serial {serial:.1f} s, LocalCluster of "
+              f"{workers}: {seconds:.1f} s ({serial / seconds:.2f}x), identical "
+              f"{out[f'jacobian_dask_{workers}_identical']}")  # fmt: skip
+    serial = _sweep_serial()
+    out["sweep_serial_s"] = serial
+    for workers in (1, 2):
+        seconds = _sweep(workers)
+        out[f"sweep_dask_{workers}_s"] = seconds
+        print(
+            f"  stability sweep, 4 points N=4 16x32: serial {serial:.1f} s, LocalCluster of "
+            f"{workers} (start-up included): {seconds:.1f} s ({serial / seconds:.2f}x)"
+        )
+    return out

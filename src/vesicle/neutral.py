@@ -1,0 +1,294 @@
+"""Neutral curves ``lambda_c(chi)`` at fixed ``v``: loss of stability continued in chi (SPEC §16).
+
+The curve is a fold (saddle-node) curve at low shear and a Hopf curve at high shear.  The tracer
+starts where the bracketing search of :func:`vesicle.stability.critical_lambda` is reliable (the
+requested ``chi`` closest to 1, a Hopf point) and continues the critical point from there in both
+directions.  Each new ``chi``:
+
+1. predicts ``lambda_c`` from the last two points (linear in ``log chi``, ``log lambda``);
+2. moves the previous critical neighbourhood's stable state to the new ``chi`` at
+   ``lambda_start`` = the prediction lowered by ``margin`` (Newton from that state and its
+   Jacobian; a branch in ``chi`` with step halving where one jump is too far), lowering
+   ``lambda_start`` further while the state found is not stable;
+3. follows the branch in ``lambda`` from there (:func:`vesicle.branch.branch`: corrector from the
+   neighbour, stability at every point) until its leading eigenvalue crosses: a Hopf or
+   saddle-node crossing located by Brent's method, or the fold where the branch turns back,
+   located by pseudo-arclength, to ``xtol``.
+
+No new ``chi`` starts from a fresh bracket.  Where the type changes between neighbours (the
+complex pair of the Hopf curve becomes two real eigenvalues, SPEC §16), the change is located by
+bisection in ``log chi`` to ``type_tol``.  The ``chi`` values asked for are the ones reported;
+the bisection points are reported separately.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+from . import __version__
+from .branch import BranchPoint, SpecialPoint, branch, reach
+from .critical import critical_lambda
+from .parameters import Discretisation, Physics
+from .solver import SolverError
+from .stability import stability
+from .steady import NewtonError, SteadyResult, steady_tank_treading
+from .surface import ShapeError
+
+__all__ = ["NeutralCurve", "NeutralPoint", "neutral_curve"]
+
+log = logging.getLogger(__name__)
+
+_FAILURES = (NewtonError, ShapeError, SolverError)
+
+#: Largest ratio between neighbouring chi of the trace (intermediate points are added).
+CHI_RATIO = 1.5
+
+
+@dataclass(frozen=True)
+class NeutralPoint:
+    """``lambda_c`` at one ``chi`` with the type of the bifurcation."""
+
+    chi: float
+    lambda_c: float
+    bifurcation: str  # "hopf" or "saddle-node"
+    omega_R: float
+    psi: float  # of the stable state nearest below lambda_c
+    D: float
+    located: bool
+    seconds: float
+    start: SteadyResult | None = field(default=None, repr=False, compare=False)
+
+    def to_dict(self) -> dict:
+        return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
+                "omega_R": self.omega_R, "psi": self.psi, "D": self.D,
+                "located": self.located, "seconds": self.seconds}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class NeutralCurve:
+    """The traced curve, the located type change (or ``None``) and the cost."""
+
+    physics: Physics  # v and flow (lam and chi are what is traced)
+    discretisation: Discretisation
+    points: list[NeutralPoint]
+    type_change: dict | None
+    bisection: list[NeutralPoint]
+    seconds: float
+
+    def to_dict(self) -> dict:
+        return {
+            "vesicle_version": __version__,
+            "v": self.physics.v,
+            "degree": self.discretisation.degree,
+            "grid": self.discretisation.grid,
+            "physics": {k: x for k, x in self.physics.to_dict().items() if k not in ("lam", "chi")},
+            "discretisation": self.discretisation.to_dict(),
+            "points": [p.to_dict() for p in self.points],
+            "type_change": self.type_change,
+            "bisection": [p.to_dict() for p in self.bisection],
+            "seconds": self.seconds,
+        }
+
+
+class _Tracer:
+    def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor):
+        self.physics, self.disc, self.xtol, self.margin = physics, disc, xtol, margin
+        self.progress, self.jacobian = progress, jacobian
+        self.options = {"jacobian": jacobian, "executor": executor}
+
+    def at(self, chi: float, lam: float) -> Physics:
+        return self.physics.replace(chi=float(chi), lam=float(lam))
+
+    def newton(self, physics: Physics, start: SteadyResult) -> SteadyResult:
+        return steady_tank_treading(physics, self.disc, initial=start, **self.options)
+
+    def _to(self, start: SteadyResult, parameter: str, value: float) -> SteadyResult:
+        """``start`` moved in one parameter: Newton directly, else a branch with halving."""
+        target = start.physics.replace(**{parameter: float(value)})
+        try:
+            return self.newton(target, start)
+        except _FAILURES as err:
+            log.info("direct move to %s = %.4g failed (%s): by a branch", parameter, value, err)
+        leg = branch(start.physics, self.disc, parameter, [value], start=start, locate=False,
+                     arclength=False, **self.options)  # fmt: skip
+        if leg.stopped:
+            raise NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
+        return leg.points[-1].steady
+
+    def move(self, start: SteadyResult, chi: float, lam: float) -> SteadyResult:
+        """A steady state at (chi, lam) from ``start``: first in lam at the start's chi (below
+        the old critical point the branch exists), then in chi at that lam."""
+        if start.lam != lam:
+            start = self._to(start, "lam", lam)
+        return start if start.chi == chi else self._to(start, "chi", chi)
+
+    def stable_start(self, start: SteadyResult, chi: float, lam: float) -> SteadyResult:
+        """A stable state at ``chi`` at or below ``lam``: where there is none there (beyond a
+        fold, or past the loss of stability) lam is lowered by twice the margin and the move
+        repeated from ``start``."""
+        for _ in range(8):
+            try:
+                state = self.move(start, chi, lam)
+            except _FAILURES as err:
+                log.info("chi = %.4g: no state reached at lam = %.4g (%s); lowering lam", chi,
+                         lam, err)  # fmt: skip
+            else:
+                if stability(state).most_unstable[1] < 0:
+                    return state
+                log.info("chi = %.4g: the state at lam = %.4g is not stable; lowering lam",
+                         chi, lam)  # fmt: skip
+            lam *= 1.0 - 2.0 * self.margin
+        raise NewtonError(f"no stable tank-treading state found at chi = {chi:g} down to "
+                          f"lam = {lam:g}")  # fmt: skip
+
+    def crossing(self, state: SteadyResult, lam_pred: float) -> tuple:
+        """Follow the branch up in lam from ``state``, in steps of ``margin`` (two at a time,
+        so that the secant predictor and the jump guard of the branch work and a fold is met
+        by step halving), until its stability changes."""
+        lam = state.lam
+        ratio = 1.0 + self.margin
+        for _ in range(int(math.log(3.0) / math.log(ratio)) // 2 + 1):  # up to 3x lam
+            values = [lam * ratio, lam * ratio**2]
+            b = branch(state.physics, self.disc, "lam", values, start=state, xtol=self.xtol,
+                       **self.options)  # fmt: skip
+            crossings = [s for s in b.special_points if s.value > lam]
+            if crossings:
+                return crossings[0], b
+            if b.stopped:  # a fold the arclength could not locate (a complex pair leads there,
+                # next to the type change): the last point reached, within the step halving
+                last = max(p.physics.lam for p in b.points)
+                log.warning("chi = %.4g: the branch folds near lam = %.6g (not located: %s)",
+                            state.chi, last, b.stopped)  # fmt: skip
+                return SpecialPoint("fold", "lam", last, 0.0, False, (last, last)), b
+            state, lam = b.points[-1].steady, values[-1]
+        raise NewtonError(f"no loss of stability at chi = {state.chi:g} below lam = {lam:g}")
+
+    def point(self, start: SteadyResult, chi: float, lam_pred: float) -> NeutralPoint:
+        t0 = time.perf_counter()
+        state = self.stable_start(start, chi, lam_pred * (1.0 - self.margin))
+        special, b = self.crossing(state, lam_pred)
+        below = [p for p in b.points if p.physics.lam <= special.value and p.most_unstable[1] < 0]
+        nearest: BranchPoint = max(below, key=lambda p: p.physics.lam) if below else b.points[0]
+        kind = "hopf" if special.kind == "hopf" else "saddle-node"
+        p = NeutralPoint(float(chi), float(special.value), kind, float(special.omega_R),
+                         float(nearest.steady.psi), float(nearest.steady.D),
+                         bool(special.located), time.perf_counter() - t0,
+                         nearest.steady)  # fmt: skip
+        log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c, kind,
+                 p.omega_R)  # fmt: skip
+        if self.progress is not None:
+            self.progress({k: v for k, v in p.to_dict().items() if k != "located"})
+        return p
+
+
+def _predict(points: list[NeutralPoint], chi: float) -> float:
+    """lambda_c at chi, linear in (log chi, log lambda) through the last two points."""
+    if len(points) == 1:
+        return points[0].lambda_c
+    a, b = points[-2], points[-1]
+    slope = math.log(b.lambda_c / a.lambda_c) / math.log(b.chi / a.chi)
+    return b.lambda_c * (chi / b.chi) ** slope
+
+
+def neutral_curve(
+    physics: Physics | float,
+    chi: Sequence[float],
+    discretisation: Discretisation | None = None,
+    *,
+    xtol: float = 1e-3,
+    margin: float = 0.03,
+    type_tol: float = 0.02,
+    locate_type_change: bool = True,
+    progress: Callable[[dict], None] | None = None,
+    jacobian: str = "linearised",
+    executor=None,
+) -> NeutralCurve:
+    """Trace ``lambda_c(chi)`` through the values ``chi`` (see the module docstring).
+
+    Parameters
+    ----------
+    physics : Physics or float
+        Its ``v`` and ``flow`` (or just ``v``).
+    chi : sequence of float
+        The shear rates to report (positive; any order; reported ascending).
+    xtol : float
+        Absolute tolerance of each lambda_c.
+    margin : float
+        Relative distance below the predicted lambda_c at which each chi is started.
+    type_tol : float
+        Relative width in chi to which a change of bifurcation type is located.
+    progress : callable, optional
+        Given each point's summary as it is found.
+    jacobian, executor
+        As for :func:`vesicle.steady.steady_tank_treading` (the executor runs
+        finite-difference Jacobian columns).
+    """
+    if not isinstance(physics, Physics):
+        physics = Physics(v=float(physics))
+    chis = sorted({float(c) for c in chi})
+    if not chis or chis[0] <= 0:
+        raise ValueError(f"chi values must be positive, got {list(chi)}")
+    for c in chis:
+        physics.replace(chi=c)
+    disc = discretisation if discretisation is not None else Discretisation()
+    t0 = time.perf_counter()
+    tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor)
+    first = min(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
+    c = critical_lambda(physics.replace(chi=chis[first]), disc, xtol=xtol, **tracer.options)
+    start = reach(tracer.at(chis[first], c.lambda_c * (1 - margin)), disc, **tracer.options)
+    seed = tracer.point(start, chis[first], c.lambda_c)
+    traced, between = {chis[first]: seed}, []
+    for order in (chis[first + 1 :], chis[:first][::-1]):  # up, then down from the seed
+        path = [seed]
+        for x in order:
+            steps = math.ceil(abs(math.log(x / path[-1].chi)) / math.log(CHI_RATIO) - 1e-9)
+            for k in range(1, steps + 1):  # intermediate chi where the asked ones are far apart
+                here = path[-1].chi * (x / path[-1].chi) ** (1.0 / (steps - k + 1))
+                p = tracer.point(path[-1].start, x if k == steps else here, _predict(path, here))
+                path.append(p)
+                if k < steps:
+                    between.append(p)
+            traced[x] = path[-1]
+    points = [traced[x] for x in chis]
+    change, bisection = None, []
+    if locate_type_change:
+        change, bisection = _type_change(tracer, sorted(points + between, key=lambda p: p.chi),
+                                         type_tol)  # fmt: skip
+    return NeutralCurve(physics, disc, points, change, between + bisection,
+                        time.perf_counter() - t0)  # fmt: skip
+
+
+def _type_change(tracer: _Tracer, points: list[NeutralPoint], tol: float):
+    """Bisection in log chi between the first neighbours of different type."""
+    for a, b in itertools.pairwise(points):
+        if a.bifurcation != b.bifurcation:
+            break
+    else:
+        return None, []
+    extra = []
+    while b.chi / a.chi > 1.0 + tol:
+        mid = math.sqrt(a.chi * b.chi)
+        near = a if abs(math.log(mid / a.chi)) <= abs(math.log(b.chi / mid)) else b
+        lam = a.lambda_c + (b.lambda_c - a.lambda_c) * math.log(mid / a.chi) / math.log(
+            b.chi / a.chi)  # fmt: skip
+        try:
+            p = tracer.point(near.start, mid, lam)
+        except (*_FAILURES, ValueError) as err:  # next to the type change the fold is hard
+            log.warning("type change: no critical point at chi = %.4g (%s); bracket kept at "
+                        "[%.4g, %.4g]", mid, err, a.chi, b.chi)  # fmt: skip
+            break
+        extra.append(p)
+        if p.bifurcation == a.bifurcation:
+            a = p
+        else:
+            b = p
+    hopf = a if a.bifurcation == "hopf" else b
+    return {"chi": math.sqrt(a.chi * b.chi), "lambda_c": 0.5 * (a.lambda_c + b.lambda_c),
+            "bracket": [a.chi, b.chi], "located": b.chi / a.chi <= 1.0 + tol,
+            "omega_R_at_hopf_end": hopf.omega_R, "below": a.bifurcation,
+            "above": b.bifurcation}, extra  # fmt: skip

@@ -1,0 +1,446 @@
+"""Parameter sweeps on Dask with a crash-proof results store (issue 13, part 3).
+
+A sweep is a task (:data:`TASKS`) evaluated at every point of a parameter grid.  Its config is a
+TOML file::
+
+    [sweep]
+    task = "tt"            # tt | stability | critical | run
+    out = "s.h5"           # the results store (relative to the config file's folder)
+    points = "product"     # the Cartesian product of [grid] (default), or "list": the i-th
+                           #   values of every [grid] list together
+    [grid]                 # lists (or single values) of v, lam, chi
+    v = [0.95]
+    lam = [1.0, 2.0, 4.0, 8.0]
+    chi = [1.0]
+    [physics]              # fixed physics (flow, or a v/lam/chi not swept)
+    [discretisation]       # as for every command
+    degree = 8
+    grid = 32
+    [solver]               # velocity-solve tolerances of "run" points
+    [run]                  # the run settings of "run" points (t_end, save_every, ...)
+    [task]                 # task options: modes ("symmetric" | "general") for stability,
+                           #   jacobian, max_iterations, xtol for critical
+
+Every point is keyed by its parameters (:attr:`vesicle.Physics.key`).  Results come back to the
+process that runs the sweep and are written, one completed point at a time, to the store by an
+atomic rewrite (:func:`vesicle.io.write_atomically`): a crash, Ctrl-C, SIGKILL or a full disk
+loses at most the points in flight, and a rerun skips every point already done (failed ones are
+tried again).  A point that raises is recorded with its error and does not stop the others; a
+worker that dies mid-point has its point rescheduled by Dask (up to its ``allowed-failures``,
+then the point is recorded as failed).  The store holds the config it was made with; a rerun with
+a different task, discretisation or fixed parameters is refused (start a new store).
+"""
+
+from __future__ import annotations
+
+import difflib
+import itertools
+import json
+import logging
+import os
+import time
+import tomllib
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from . import __version__
+from .analysis import summarize
+from .branch import reach
+from .config import SECTIONS, ConfigError, solver_from
+from .critical import critical_lambda, critical_summary
+from .dynamics import RunParameters
+from .io import open_file, stamp, write_atomically
+from .parameters import Discretisation, Physics
+from .simulation import simulate
+from .stability import stability
+from .steady_io import steady_summary
+
+__all__ = ["TASKS", "SweepConfig", "SweepStore", "load", "read_sweep_config", "run_sweep"]
+
+log = logging.getLogger(__name__)
+
+FORMAT = "vesicle-sweep"
+FORMAT_VERSION = 1
+
+#: Parameters a grid may sweep.
+GRID_KEYS = ("v", "lam", "chi")
+
+
+# ------------------------------------------------------------------------ tasks
+def _tt(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    newton = {k: options[k] for k in ("jacobian", "max_iterations") if k in options}
+    return steady_summary(reach(physics, disc, **newton))
+
+
+def _stability(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    newton = {k: options[k] for k in ("jacobian", "max_iterations") if k in options}
+    r = reach(physics, disc, **newton)
+    return steady_summary(r, stability(r, modes=options.get("modes", "symmetric")))
+
+
+def _critical(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    keys = ("jacobian", "max_iterations", "xtol", "lam0")
+    c = critical_lambda(physics, disc, **{k: options[k] for k in keys if k in options})
+    return critical_summary(c, physics, disc)
+
+
+def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    params = RunParameters(physics, disc, settings.get("solver"), **settings.get("run", {}))
+    run = simulate(params)
+    return {"vesicle_version": __version__, "physics": physics.to_dict(),
+            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
+            "chi": physics.chi, **summarize(run)}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Task:
+    """A sweep task: the function of one point and what it sweeps and accepts."""
+
+    function: Callable[[Physics, Discretisation, dict, dict], dict]
+    swept: tuple[str, ...]  # the [grid] keys it takes
+    options: tuple[str, ...]  # the [task] keys it takes
+
+
+#: The tasks, by name; each point's result has the keys of the command's own --json output.
+TASKS = {
+    "tt": Task(_tt, GRID_KEYS, ("jacobian", "max_iterations")),
+    "stability": Task(_stability, GRID_KEYS, ("jacobian", "max_iterations", "modes")),
+    "critical": Task(_critical, ("v", "chi"), ("jacobian", "max_iterations", "xtol", "lam0")),
+    "run": Task(_run, GRID_KEYS, ()),
+}
+
+_TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
+               "xtol": (int, float), "lam0": (int, float)}  # fmt: skip
+_SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
+
+
+# ----------------------------------------------------------------------- config
+@dataclass(frozen=True)
+class SweepConfig:
+    """A checked sweep configuration (see the module docstring)."""
+
+    path: Path
+    task: str
+    out: Path
+    points: tuple[Physics, ...]
+    discretisation: Discretisation
+    options: dict = field(default_factory=dict)
+    settings: dict = field(default_factory=dict)  # "solver" (object), "run" (table)
+    text: str = ""  # the file as given: stored with the results
+
+    def fingerprint(self) -> str:
+        """What every point of one store must share (task, discretisation, options, settings,
+        fixed physics)."""
+        settings = {k: (v.to_dict() if hasattr(v, "to_dict") else v)
+                    for k, v in self.settings.items()}  # fmt: skip
+        fixed = self.points[0].to_dict() if self.points else {}
+        for key in TASKS[self.task].swept:
+            fixed.pop(key, None)
+        return json.dumps({"task": self.task, "discretisation": self.discretisation.to_dict(),
+                           "options": self.options, "settings": settings, "fixed": fixed},
+                          sort_keys=True, default=str)  # fmt: skip
+
+
+def _fail(path: Path, message: str):
+    raise ConfigError(f"{path}: {message}")
+
+
+def _check_keys(path: Path, section: str, table: dict, allowed: dict) -> None:
+    if not isinstance(table, dict):
+        _fail(path, f"[{section}] must be a table, got {table!r}")
+    for key, value in table.items():
+        if key not in allowed:
+            hint = difflib.get_close_matches(key, list(allowed), n=1)
+            _fail(path, f"unknown key {key!r} in [{section}]"
+                  + (f" (did you mean {hint[0]!r}?)" if hint else
+                     f"; expected one of {', '.join(sorted(allowed))}"))  # fmt: skip
+        expected = allowed[key]
+        if not isinstance(value, expected) or (isinstance(value, bool) and bool not in expected):
+            names = " or ".join(sorted({t.__name__ for t in expected}))
+            _fail(path, f"[{section}] {key} must be {names}, got {value!r}")
+
+
+def _grid_values(path: Path, key: str, value) -> list[float]:
+    values = value if isinstance(value, list) else [value]
+    if not values:
+        _fail(path, f"[grid] {key} is an empty list")
+    for x in values:
+        if isinstance(x, bool) or not isinstance(x, int | float):
+            _fail(path, f"[grid] {key} must hold numbers, got {x!r}")
+    return [float(x) for x in values]
+
+
+def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
+    """Read and check a sweep config; every point's parameters are validated here, before any
+    work, and errors name the file and the key."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+        data = tomllib.loads(text)
+    except FileNotFoundError:
+        raise ConfigError(f"no sweep configuration at {path}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
+        raise ConfigError(f"{path} is not valid TOML: {err}") from None
+    tables = ("sweep", "grid", "physics", "discretisation", "solver", "run", "task")
+    for section in data:
+        if section not in tables:
+            hint = difflib.get_close_matches(section, tables, n=1)
+            _fail(path, f"unknown table [{section}]" + (f" (did you mean [{hint[0]}]?)" if hint
+                  else ""))  # fmt: skip
+    sweep = data.get("sweep")
+    if not isinstance(sweep, dict) or "task" not in sweep or "out" not in sweep:
+        _fail(path, "needs a [sweep] table with task and out")
+    _check_keys(path, "sweep", sweep, _SWEEP_KEYS)
+    task = sweep["task"]
+    if task not in TASKS:
+        _fail(path, f"[sweep] task must be one of {', '.join(TASKS)}, got {task!r}")
+    spec = TASKS[task]
+    grid = data.get("grid", {})
+    _check_keys(path, "grid", grid, {k: (list, int, float) for k in spec.swept})
+    if not grid:
+        _fail(path, f"[grid] must give at least one of {', '.join(spec.swept)}")
+    for section in ("physics", "discretisation", "solver", "run"):
+        _check_keys(path, section, data.get(section, {}), SECTIONS[section])
+    if task != "run" and ("run" in data or "solver" in data):
+        _fail(path, f'[run] and [solver] are for task = "run", not {task!r}')
+    options = data.get("task", {})
+    _check_keys(path, "task", options, {k: _TASK_TYPES[k] for k in spec.options})
+    fixed = data.get("physics", {})
+    both = sorted(set(fixed) & set(grid))
+    if both:
+        _fail(path, f"{', '.join(both)} given in both [grid] and [physics]")
+    values = {k: _grid_values(path, k, v) for k, v in grid.items()}
+    mode = sweep.get("points", "product")
+    if mode == "product":
+        combos = [dict(zip(values, c, strict=True)) for c in itertools.product(*values.values())]
+    elif mode == "list":
+        lengths = {len(v) for v in values.values()}
+        if len(lengths) != 1:
+            _fail(path, f'[sweep] points = "list" needs [grid] lists of one length, got '
+                  f"{ {k: len(v) for k, v in values.items()} }")  # fmt: skip
+        combos = [dict(zip(values, c, strict=True)) for c in zip(*values.values(), strict=True)]
+    else:
+        _fail(path, f'[sweep] points must be "product" or "list", got {mode!r}')
+    try:
+        points = tuple(Physics(**{**fixed, **c}) for c in combos)
+        disc = Discretisation(**data.get("discretisation", {}))
+        settings = {}
+        if task == "run":
+            settings = {"solver": solver_from(data.get("solver", {})), "run": data.get("run", {})}
+            RunParameters(points[0], disc, settings["solver"], **settings["run"])
+        if "modes" in options and options["modes"] not in ("symmetric", "general"):
+            raise ValueError(f"[task] modes must be 'symmetric' or 'general', got "
+                             f"{options['modes']!r}")  # fmt: skip
+    except (ValueError, TypeError) as err:
+        raise ConfigError(f"{path}: {err}") from None
+    if len({p.key for p in points}) != len(points):
+        _fail(path, "[grid] repeats a point")
+    out = Path(sweep["out"])
+    if not out.is_absolute():
+        out = path.parent / out
+    return SweepConfig(path, task, out, points, disc, options, settings, text)
+
+
+# ------------------------------------------------------------------------ store
+@dataclass
+class SweepStore:
+    """The results of a sweep: one record per point key (status, parameters, result, error)."""
+
+    path: Path
+    fingerprint: str
+    config_text: str
+    task: str
+    records: dict[str, dict] = field(default_factory=dict)
+    attributes: dict = field(default_factory=dict)
+
+    @classmethod
+    def open(cls, config: SweepConfig) -> SweepStore:
+        """The store of ``config``: read if it exists (and was made by the same config),
+        else empty."""
+        fingerprint = config.fingerprint()
+        if not config.out.exists():
+            return cls(config.out, fingerprint, config.text, config.task)
+        store = cls.read(config.out)
+        if store.fingerprint != fingerprint:
+            raise ConfigError(
+                f"{config.out} holds a sweep made with another task, discretisation, fixed "
+                f"parameters or options than {config.path}; give a new [sweep] out"
+            )
+        store.config_text = config.text
+        return store
+
+    @classmethod
+    def read(cls, path: str | os.PathLike) -> SweepStore:
+        path = Path(path)
+        with open_file(path, FORMAT, "sweep store") as f:
+            records = {}
+            for key, group in f["points"].items():
+                records[key] = {k: json.loads(v) for k, v in group.attrs.items()}
+            store = cls(path, str(f.attrs["fingerprint"]), str(f.attrs["config"]),
+                        str(f.attrs["task"]), records,
+                        {k: str(v) for k, v in f.attrs.items()})  # fmt: skip
+        if store.attributes.get("checksum") != store._checksum():
+            raise ValueError(f"{path} is corrupted: its records do not match their checksum")
+        return store
+
+    def _checksum(self) -> str:
+        import hashlib
+
+        return hashlib.sha256(json.dumps(self.records, sort_keys=True).encode()).hexdigest()
+
+    def record(self, key: str, entry: dict) -> None:
+        """Add one point's record and rewrite the store atomically."""
+        self.records[key] = entry
+        self.write()
+
+    def write(self) -> Path:
+        def fill(f: h5py.File) -> None:
+            kept = {k: self.attributes[k] for k in ("created",) if k in self.attributes}
+            self.attributes["created"] = stamp(f, FORMAT, FORMAT_VERSION, kept, self._checksum())
+            f.attrs["fingerprint"] = self.fingerprint
+            f.attrs["config"] = self.config_text
+            f.attrs["task"] = self.task
+            points = f.create_group("points")
+            for key, entry in self.records.items():
+                group = points.create_group(key)
+                for name, value in entry.items():
+                    group.attrs[name] = json.dumps(value)
+
+        size = sum(len(json.dumps(e)) for e in self.records.values())
+        return write_atomically(self.path, fill, size)
+
+    def status(self, config: SweepConfig | None = None) -> dict:
+        """``{"done", "failed"}`` of the records, and ``"pending"`` (points of ``config``
+        without a record) when the config is given (then only its points are counted)."""
+        if config is None:
+            states = [r["status"] for r in self.records.values()]
+            return {"done": states.count("done"), "failed": states.count("failed")}
+        states = [self.records.get(p.key, {}).get("status") for p in config.points]
+        return {"done": states.count("done"), "failed": states.count("failed"),
+                "pending": states.count(None)}  # fmt: skip
+
+    def rows(self) -> list[dict]:
+        """One row per point: its parameters, status, error, seconds and result keys."""
+        rows = []
+        for key, r in self.records.items():
+            row = {"key": key, **{k: r["physics"][k] for k in GRID_KEYS if k in r["physics"]},
+                   "status": r["status"], "seconds": r.get("seconds"),
+                   "error": r.get("error")}  # fmt: skip
+            row.update({k: v for k, v in (r.get("result") or {}).items() if k not in row})
+            rows.append(row)
+        return sorted(rows, key=lambda row: tuple(row.get(k, 0.0) for k in GRID_KEYS))
+
+
+def load(path: str | os.PathLike):
+    """A sweep store as a :class:`pandas.DataFrame`: one row per point, its parameters, status
+    and the scalar results (lists and tables of a point stay in :meth:`SweepStore.rows`)."""
+    import pandas as pd  # costs ~0.3 s at start-up: only here
+
+    rows = SweepStore.read(path).rows()
+    scalar = [{k: v for k, v in r.items() if not isinstance(v, list | dict)} for r in rows]
+    return pd.DataFrame(scalar)
+
+
+# ------------------------------------------------------------------------- run
+def run_point(task: str, physics: dict, disc: dict, options: dict, settings: dict) -> dict:
+    """One point, in a worker: the task's result, or its error (never raises)."""
+    start = time.perf_counter()
+    try:
+        result = TASKS[task].function(
+            Physics.from_dict(physics), Discretisation.from_dict(disc), options, settings
+        )
+        entry = {"status": "done", "result": _plain(result)}
+    except Exception as err:
+        entry = {"status": "failed", "error": f"{type(err).__name__}: {err}",
+                 "traceback": traceback.format_exc(limit=6)}  # fmt: skip
+    entry.update(
+        physics=physics,
+        seconds=time.perf_counter() - start,
+        pid=os.getpid(),
+        finished=datetime.now(UTC).isoformat(timespec="seconds"),
+    )
+    return entry
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
+
+
+def _client(workers: int | None, scheduler: str | None) -> tuple:
+    """A Dask client: a LocalCluster of ``workers`` one-thread processes (default: the cores),
+    or the scheduler at ``scheduler``."""
+    from distributed import Client, LocalCluster  # ~1 s to import: only here
+
+    if scheduler is not None:
+        return Client(scheduler), None
+    n = workers or max(1, os.cpu_count() or 1)
+    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                           dashboard_address=None)  # fmt: skip
+    return Client(cluster), cluster
+
+
+def run_sweep(
+    config: SweepConfig,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[dict], None] | None = None,
+) -> SweepStore:
+    """Evaluate every point of ``config`` not yet done, on Dask, recording each as it completes.
+
+    ``progress`` is called after every completed point with ``{"key", "status", "done",
+    "total", "seconds"}``.  Returns the store; raises only for the sweep itself (a bad config,
+    an unwritable store), never for a point.
+    """
+    from distributed import as_completed
+
+    store = SweepStore.open(config)
+    todo = [p for p in config.points if store.records.get(p.key, {}).get("status") != "done"]
+    total = len(config.points)
+    log.info("sweep %s: %d points, %d to do", config.path, total, len(todo))
+    if not todo:
+        return store
+    store.write()  # the store exists (and is writable) before any work
+    client, cluster = _client(workers, scheduler)
+    futures = {}
+    try:
+        disc = config.discretisation.to_dict()
+        for p in todo:
+            future = client.submit(run_point, config.task, p.to_dict(), disc, config.options,
+                                   config.settings, key=f"vesicle-point-{p.key}",
+                                   pure=False)  # fmt: skip
+            futures[future] = p.key
+        for future in as_completed(futures):
+            key = futures[future]
+            try:
+                entry = future.result()
+            except Exception as err:
+                physics = next(p for p in todo if p.key == key).to_dict()
+                entry = {"status": "failed", "error": f"{type(err).__name__}: {err}",
+                         "physics": physics}  # fmt: skip
+            store.record(key, entry)
+            if progress is not None:
+                progress({"key": key, "status": entry["status"], **store.status(config),
+                          "total": total, "seconds": entry.get("seconds")})  # fmt: skip
+    finally:
+        for future in futures:
+            future.cancel()
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return store

@@ -1,0 +1,236 @@
+"""The sweep engine (issue 13, part 3): config checks, Dask runs, the store, resume, kills."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+from click.testing import CliRunner
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from vesicle.cli import main
+from vesicle.config import ConfigError
+from vesicle.sweep import SweepStore, load, read_sweep_config, run_point, run_sweep
+
+SMALL = "[discretisation]\ndegree = 4\ngrid = 12\n"
+
+
+def write(tmp_path, body: str, name="s.toml"):
+    path = tmp_path / name
+    path.write_text(body)
+    return path
+
+
+def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
+    return write(tmp_path, f'[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nv = [0.95]\n'
+                           f"lam = {lam}\nchi = [1.0]\n{SMALL}{extra}")  # fmt: skip
+
+
+# ----------------------------------------------------------------- config checks
+@pytest.mark.parametrize(
+    "body, message",
+    [
+        ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlamda = [1.0]\n', "unknown key 'lamda'"),
+        ('[sweep]\ntask = "tx"\nout = "s.h5"\n[grid]\nlam = [1.0]\n', "task must be one of"),
+        ('[sweep]\ntask = "critical"\nout = "s.h5"\n[grid]\nlam = [1.0]\n', "unknown key 'lam'"),
+        ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = []\n', "empty list"),
+        ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = ["a"]\n', "must hold numbers"),
+        ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nv = [1.5]\n', "v must"),
+        ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[physics]\nlam = 2.0\n', "both"),
+        (
+            '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[discretisation]\ngrid = 4\n',
+            "grid",
+        ),
+        (
+            '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[run]\nt_end = 1.0\n',
+            "for task",
+        ),
+        ('[sweep]\ntask = "tt"\n[grid]\nlam = [1.0]\n', "task and out"),
+        (
+            '[sweep]\ntask = "tt"\nout = "s.h5"\npoints = "list"\n[grid]\nlam = [1.0, 2.0]\n'
+            "chi = [1.0]\n",
+            "one length",
+        ),
+        (
+            '[sweep]\ntask = "stability"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[task]\nmodes = "x"\n',
+            "modes",
+        ),
+        ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0, 1.0]\n', "repeats"),
+        ('[sweeps]\ntask = "tt"\n', "did you mean [sweep]"),
+    ],
+)
+def test_bad_configs_are_refused_naming_the_key(tmp_path, body, message):
+    path = write(tmp_path, body)
+    with pytest.raises(ConfigError, match=r"s\.toml") as err:
+        read_sweep_config(path)
+    assert message in str(err.value)
+    r = CliRunner().invoke(main, ["sweep", str(path)])
+    assert r.exit_code != 0 and message in r.output and "Traceback" not in r.output
+    assert not (tmp_path / "s.h5").exists()
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from(["v", "lam", "chi"]),
+       st.one_of(st.just(-1.0), st.just(0.0), st.just(float("inf")), st.text(max_size=3),
+                 st.booleans(), st.just([])))  # fmt: skip
+def test_property_bad_grid_values(tmp_path_factory, key, value):
+    """Random bad values of any swept parameter: a ConfigError naming the key, no store."""
+    if key == "chi" and value in (-1.0, 0.0):
+        return  # valid: chi may be zero (rest) or negative (reversed shear)
+    tmp = tmp_path_factory.mktemp("p")
+    text = repr(value) if isinstance(value, float) else json.dumps(value)  # TOML literals
+    path = write(tmp, f'[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\n{key} = [{text}]\n')
+    with pytest.raises(ConfigError) as err:
+        read_sweep_config(path)
+    assert key in str(err.value) or "TOML" in str(err.value)
+    assert not (tmp / "s.h5").exists()
+
+
+def test_points_product_and_list(tmp_path):
+    c = read_sweep_config(write(tmp_path, '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\n'
+                                          "lam = [1.0, 2.0]\nchi = [1.0, 3.0]\n"))  # fmt: skip
+    assert [(p.lam, p.chi) for p in c.points] == [(1, 1), (1, 3), (2, 1), (2, 3)]
+    c = read_sweep_config(
+        write(
+            tmp_path,
+            '[sweep]\ntask = "tt"\nout = "s.h5"\npoints = "list"\n'
+            "[grid]\nlam = [1.0, 2.0]\nchi = [1.0, 3.0]\n",
+        )
+    )
+    assert [(p.lam, p.chi) for p in c.points] == [(1, 1), (2, 3)]
+    assert c.out == tmp_path / "s.h5"
+
+
+# --------------------------------------------------------------------- running
+@pytest.fixture(scope="module")
+def swept(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("sweep")
+    config = read_sweep_config(tt_config(tmp))
+    store = run_sweep(config, workers=2)
+    return tmp, config, store
+
+
+def test_a_tt_sweep_gives_what_tt_gives(swept):
+    """Each point's result has the keys of `vesicle tt --json`, with the same numbers."""
+    _, config, store = swept
+    assert store.status(config) == {"done": 3, "failed": 0, "pending": 0}
+    r = CliRunner().invoke(main, ["tt", "--v", "0.95", "--lam", "2", "--chi", "1", "--degree",
+                                  "4", "--grid", "12", "--json"])  # fmt: skip
+    direct = json.loads(r.output.strip().splitlines()[-1])
+    point = next(r for r in store.rows() if r["lam"] == 2.0)
+    assert set(direct) - {"updates", "jacobian"} <= set(point)
+    assert point["psi"] == pytest.approx(direct["psi"], rel=1e-9)
+    assert point["vesicle_version"] == direct["vesicle_version"]
+
+
+def test_status_table_and_dataframe(swept):
+    _, config, _ = swept
+    path = str(config.path)
+    r = CliRunner().invoke(main, ["sweep", path, "--status", "--json"])
+    assert json.loads(r.output) == {"done": 3, "failed": 0, "pending": 0}
+    r = CliRunner().invoke(main, ["sweep", path, "--table", "--json"])
+    rows = json.loads(r.output)["rows"]
+    assert [row["lam"] for row in rows] == [1.0, 2.0, 4.0] and all("psi" in row for row in rows)
+    r = CliRunner().invoke(main, ["sweep", path, "--table", "--csv"])
+    header = r.output.splitlines()[0].split(",")
+    assert {"v", "lam", "chi", "psi", "status"} <= set(header)
+    frame = load(config.out)
+    assert list(frame["lam"]) == [1.0, 2.0, 4.0] and frame["psi"].notna().all()
+
+
+def test_a_rerun_skips_done_points_and_adds_new_ones(swept):
+    tmp, config, store = swept
+    before = {k: r["finished"] for k, r in store.records.items()}
+    again = run_sweep(config, workers=1)
+    assert {k: r["finished"] for k, r in again.records.items()} == before  # nothing recomputed
+    wider = read_sweep_config(tt_config(tmp, lam="[1.0, 2.0, 4.0, 3.0]"))
+    grown = run_sweep(wider, workers=1)
+    assert grown.status(wider) == {"done": 4, "failed": 0, "pending": 0}
+    assert all(grown.records[k]["finished"] == t for k, t in before.items())
+
+
+def test_another_discretisation_is_refused_on_the_same_store(swept):
+    tmp, _, _ = swept
+    other = write(tmp, (tt_config(tmp).read_text()).replace("degree = 4", "degree = 6"),
+                  name="other.toml")  # fmt: skip
+    with pytest.raises(ConfigError, match="another task, discretisation"):
+        SweepStore.open(read_sweep_config(other))
+
+
+def test_a_failing_point_is_recorded_and_the_others_go_on(tmp_path):
+    """v = 0.3 has no representable start at N = 4 (Newton fails): recorded with its error."""
+    entry = run_point("tt", {"v": 0.3, "lam": 1.0, "chi": 1.0, "flow": "shear"},
+                      {"grid": 12, "degree": 4}, {}, {})  # fmt: skip
+    assert entry["status"] == "failed" and entry["error"]
+    config = read_sweep_config(write(tmp_path, '[sweep]\ntask = "tt"\nout = "s.h5"\n'
+                                               f"[grid]\nv = [0.3, 0.95]\n{SMALL}"))  # fmt: skip
+    store = run_sweep(config, workers=2)
+    assert store.status(config) == {"done": 1, "failed": 1, "pending": 0}
+    failed = next(r for r in store.rows() if r["status"] == "failed")
+    assert failed["v"] == 0.3 and failed["error"]
+
+
+def test_a_killed_worker_loses_no_point(tmp_path):
+    """One of two workers is SIGKILLed while points are running: Dask reschedules its point on
+    the restarted worker and every point ends done, once."""
+    from distributed import Client, LocalCluster
+
+    config = read_sweep_config(tt_config(tmp_path, lam="[1.0, 1.5, 2.0, 2.5, 3.0, 4.0]"))
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                           dashboard_address=None)  # fmt: skip
+    client = Client(cluster)
+    killed = []
+
+    def kill_one():
+        time.sleep(3.0)  # the first points are running
+        pids = client.run(os.getpid)
+        pid = sorted(pids.values())[0]
+        os.kill(pid, signal.SIGKILL)
+        killed.append(pid)
+
+    try:
+        thread = threading.Thread(target=kill_one)
+        thread.start()
+        store = run_sweep(config, scheduler=cluster.scheduler_address)
+        thread.join()
+    finally:
+        client.close()
+        cluster.close()
+    assert killed
+    assert store.status(config) == {"done": 6, "failed": 0, "pending": 0}
+    assert len(store.records) == 6
+
+
+def test_sigkill_of_the_sweep_keeps_what_was_done(tmp_path):
+    """The sweep process itself is killed mid-way: the store is readable, holds the points
+    completed so far, and the same command finishes the rest without redoing them."""
+    config = tt_config(tmp_path, lam="[1.0, 1.5, 2.0, 2.5, 3.0, 4.0]")
+    cmd = [sys.executable, "-m", "vesicle", "sweep", str(config), "--workers", "1"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)  # fmt: skip
+    store_path = tmp_path / "s.h5"
+    deadline = time.time() + 240
+    done = 0
+    while time.time() < deadline and done < 2:
+        time.sleep(0.5)
+        assert proc.poll() is None, "the sweep ended before it could be killed"
+        if store_path.exists():
+            try:
+                done = SweepStore.read(store_path).status()["done"]
+            except (OSError, ValueError):
+                pass  # caught between the rename and the read: try again
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    kept = SweepStore.read(store_path)
+    before = {k: r["finished"] for k, r in kept.records.items() if r["status"] == "done"}
+    assert 2 <= len(before) < 6
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    final = SweepStore.read(store_path)
+    assert final.status() == {"done": 6, "failed": 0}
+    assert all(final.records[k]["finished"] == t for k, t in before.items())
