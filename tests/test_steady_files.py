@@ -98,3 +98,17 @@ def test_tt_out_refuses_to_replace_a_file(steady_file):
     r = CliRunner().invoke(main, ["tt", *ARGS, "--out", str(path)])
     assert r.exit_code != 0 and "--overwrite" in r.output
     read_steady(path)  # untouched
+
+
+def test_branch_states_are_steady_files(tmp_path):
+    """`vesicle branch --states DIR`: one steady-state file per point asked for."""
+    r = CliRunner().invoke(main, ["branch", "--v", "0.95", "--chi", "3", "--lam", "1,2",
+                                  "--grid", "12", "--degree", "4", "--no-locate", "--states",
+                                  str(tmp_path / "st")])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    names = sorted(p.name for p in (tmp_path / "st").iterdir())
+    assert names == ["lam_1.h5", "lam_2.h5"]
+    s = read_steady(tmp_path / "st" / "lam_2.h5")
+    assert (
+        s.physics.lam == 2.0 and s.omega is not None and s.jacobian.shape[0] == s.modes.shape[0] + 2
+    )

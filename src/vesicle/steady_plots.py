@@ -61,7 +61,9 @@ def _plot_mode_spectra(s: SteadyFile, path: Path, dpi: int) -> Path:
     ax = fig.add_subplot()
     for values, label, marker in ((radius, "radius r", "o"), (force, "bending force f_B·n", "s")):
         l = np.arange(values.size)
-        keep = values > 0
+        keep = (
+            values > 1e-14 * values.max()
+        )  # below: rounding (the odd degrees of a symmetric state)
         ax.semilogy(l[keep], values[keep], marker=marker, ms=4, lw=1.2, label=label)
     ax.axvline(s.discretisation.degree, color="0.6", ls=":", lw=1.0, label="shape degree N")
     ax.set_xlabel("degree l")

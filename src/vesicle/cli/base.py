@@ -31,7 +31,9 @@ def main(verbose: int) -> None:
     """Spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow.
 
     Costs at the default resolution (N = 8 on 32 x 64) on a 2-core machine: `tt --stability`
-    about 30 s, `critical` a few minutes, `run` about 2.5 s per time step near lambda = 8.
+    about 33 s, `critical` about 5 min, `run` about 3 s per time step near lambda = 8 (260 s
+    per unit of time; 155 s at lambda = 1); `neutral` at N = 4 on 16 x 32 about 2.5 min for
+    chi = 0.2, 1, 3.
     """
     level = logging.WARNING - 10 * min(verbose, 2)
     logging.basicConfig(

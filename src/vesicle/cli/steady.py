@@ -77,6 +77,13 @@ _WORKERS = click.option(
     show_default=True,
     help="Processes for finite-difference Jacobian columns (--jacobian differences).",
 )
+_STATES = click.option(
+    "--states",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Also write each point's steady state (shape, multipliers, Jacobian, all eigenvalues "
+    "and modes) as a steady-state file in this folder (vesicle plot / run --init read them).",
+)
 _JACOBIAN = click.option(
     "--jacobian",
     type=click.Choice(JACOBIANS),
@@ -284,11 +291,13 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     default=None,
     help="Write the branch as JSON to this file.",
 )
+@_STATES
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
 def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, jacobian,
-                   workers, scheduler, out, as_json, config_path, **options) -> None:  # fmt: skip
+                   workers, scheduler, out, states, as_json, config_path,
+                   **options) -> None:  # fmt: skip
     """Continue steady tank-treading in lam, chi or v, with its stability and special points.
 
     With --config, the file's [physics] gives the values of --v/--lam/--chi not given on the
@@ -323,6 +332,9 @@ def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, j
         fail(str(err))
     fixed = {k: x for k, x in physics.to_dict().items() if k != name}
     result = with_version(b.to_dict(), physics=fixed, discretisation=disc)
+    if states is not None:
+        _write_states(ctx, states, [(f"{name}_{getattr(p.physics, name):.6g}", p.steady)
+                                    for p in b.points if p.requested])  # fmt: skip
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
@@ -335,6 +347,18 @@ def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, j
                    f"{s['omega_R']:.4g} ({'located' if s['located'] else 'estimate'})")  # fmt: skip
     if b.stopped:
         click.echo(f"stopped: {b.stopped}", err=True)
+
+
+def _write_states(ctx, folder: str, named: list) -> None:
+    """One steady-state file per ``(name, SteadyResult)`` in ``folder`` (created)."""
+    path = Path(folder)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        for name, steady in named:
+            write_steady(path / f"{name}.h5", steady, stability(steady),
+                         attributes={"command": command_line(ctx)})  # fmt: skip
+    except OSError as err:
+        fail(f"cannot write the states to {folder}: {err}")
 
 
 def _emit_json(result: dict, out: str | None, as_json: bool) -> bool:
@@ -407,11 +431,12 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 @_SCHEDULER
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
               help="Write the curve as JSON to this file.")  # fmt: skip
+@_STATES
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
 def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, jacobian, workers,
-                    scheduler, out, as_json, config_path, **options) -> None:  # fmt: skip
+                    scheduler, out, states, as_json, config_path, **options) -> None:  # fmt: skip
     """Neutral curve lambda_c(chi) at fixed v: the critical point continued in chi, with the
     bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
     chis = _chi_values(chi_text, points)
@@ -427,6 +452,8 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, jacob
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
     result = curve.to_dict()
+    if states is not None:  # the stable state just below each critical point
+        _write_states(ctx, states, [(f"chi_{p.chi:.6g}", p.start) for p in curve.points])
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
