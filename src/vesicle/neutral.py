@@ -107,41 +107,47 @@ class _Tracer:
     def newton(self, physics: Physics, start: SteadyResult) -> SteadyResult:
         return steady_tank_treading(physics, self.disc, initial=start, **self.options)
 
-    def _to(self, start: SteadyResult, parameter: str, value: float) -> SteadyResult:
-        """``start`` moved in one parameter: Newton directly, else a branch with halving."""
+    def _to(
+        self, start: SteadyResult, parameter: str, value: float, direct: bool = True
+    ) -> SteadyResult:
+        """``start`` moved in one parameter: Newton directly (unless not ``direct``), else a
+        branch with step halving and its jump guard."""
         target = start.physics.replace(**{parameter: float(value)})
-        try:
-            return self.newton(target, start)
-        except _FAILURES as err:
-            log.info("direct move to %s = %.4g failed (%s): by a branch", parameter, value, err)
+        if direct:
+            try:
+                return self.newton(target, start)
+            except _FAILURES as err:
+                log.info("direct move to %s = %.4g failed (%s): by a branch", parameter, value,
+                         err)  # fmt: skip
         leg = branch(start.physics, self.disc, parameter, [value], start=start, locate=False,
                      arclength=False, **self.options)  # fmt: skip
         if leg.stopped:
             raise NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
         return leg.points[-1].steady
 
-    def move(self, start: SteadyResult, chi: float, lam: float) -> SteadyResult:
+    def move(
+        self, start: SteadyResult, chi: float, lam: float, direct: bool = True
+    ) -> SteadyResult:
         """A steady state at (chi, lam) from ``start``: first in lam at the start's chi (below
         the old critical point the branch exists), then in chi at that lam."""
         if start.lam != lam:
-            start = self._to(start, "lam", lam)
-        return start if start.chi == chi else self._to(start, "chi", chi)
+            start = self._to(start, "lam", lam, direct)
+        return start if start.chi == chi else self._to(start, "chi", chi, direct)
 
     def stable_start(self, start: SteadyResult, chi: float, lam: float) -> SteadyResult:
         """A stable state at ``chi`` at or below ``lam``: where there is none there (beyond a
         fold, or past the loss of stability) lam is lowered by twice the margin and the move
         repeated from ``start``."""
         for _ in range(8):
-            try:
-                state = self.move(start, chi, lam)
-            except _FAILURES as err:
-                log.info("chi = %.4g: no state reached at lam = %.4g (%s); lowering lam", chi,
-                         lam, err)  # fmt: skip
-            else:
+            for direct in (True, False):  # a direct Newton may land on another state: a branch
+                try:
+                    state = self.move(start, chi, lam, direct)
+                except _FAILURES as err:
+                    log.info("chi = %.4g: no state reached at lam = %.4g (%s)", chi, lam, err)
+                    continue
                 if stability(state).most_unstable[1] < 0:
                     return state
-                log.info("chi = %.4g: the state at lam = %.4g is not stable; lowering lam",
-                         chi, lam)  # fmt: skip
+                log.info("chi = %.4g: the state at lam = %.4g is not stable", chi, lam)
             lam *= 1.0 - 2.0 * self.margin
         raise NewtonError(f"no stable tank-treading state found at chi = {chi:g} down to "
                           f"lam = {lam:g}")  # fmt: skip
