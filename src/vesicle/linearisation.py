@@ -96,6 +96,10 @@ def linearised_jacobian(
     u, t = system.solve(solver.rhs())  # exact base solution
     flow = params.flow if params.driven else None
     degree = basis.degree
+    if degree != shape.degree:
+        raise ValueError(
+            f"the basis has degree {degree}, the shape {shape.degree}: they must match"
+        )
     directions = np.stack([basis.to_coefficients(e) for e in np.eye(basis.size)])
     h = step * max(1.0, abs(float(shape.coefficients[0, 0].real)))
 
@@ -103,7 +107,7 @@ def linearised_jacobian(
     plus, minus = [], []
     for d in directions:
         for sign, out in ((1.0, plus), (-1.0, minus)):
-            moved = Shape(shape.coefficients + sign * h * _padded(d, shape.degree), shape.grid)
+            moved = Shape(shape.coefficients + sign * h * d, shape.grid)
             out.append(_local_terms(moved, u, t, flow, params.chi, degree, basis))
     df, ddiv, du_inf, drate = (
         (np.array([p[i] for p in plus]) - np.array([m[i] for m in minus])) / (2.0 * h)
@@ -130,11 +134,3 @@ def linearised_jacobian(
         ", ".join(f"{k} {v:.2f} s" for k, v in times.items()),
     )
     return Linearisation(jacobian=M.T, seconds=times, u=u, sigma=t)
-
-
-def _padded(c: np.ndarray, degree: int) -> np.ndarray:
-    """Coefficients (n+1, n+1) zero-padded to the shape's degree."""
-    out = np.zeros((degree + 1, degree + 1), dtype=np.complex128)
-    n = min(c.shape[0], degree + 1)
-    out[:n, :n] = c[:n, :n]
-    return out
