@@ -133,3 +133,41 @@ def test_pseudo_arclength_locates_the_low_shear_fold():
     assert b.stopped is not None and "folds at" in b.stopped
     near = [q for q in b.points if abs(q.physics.lam - folds[0].value) < 0.01]
     assert near and all(q.most_unstable[0] < 1e-2 and abs(q.most_unstable[1]) < 0.02 for q in near)
+
+
+def test_approach_exponent_recovers_known_power_laws():
+    """Synthetic growth rates with exact power laws (the square root of a saddle-node, a linear
+    crossing): the fit returns their exponents and coefficients."""
+    from vesicle.branch import approach_exponent
+
+    lam = np.linspace(6.0, 7.49, 12)
+    fit = approach_exponent(lam, -0.8 * np.sqrt(7.5 - lam), 7.5)
+    assert fit["exponent"] == pytest.approx(0.5, abs=1e-12)
+    assert fit["coefficient"] == pytest.approx(0.8, rel=1e-12) and fit["points"] == 12
+    assert approach_exponent(lam, 2.0 * (7.5 - lam), 7.5)["exponent"] == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="two points"):
+        approach_exponent([7.5, 8.0], [0.0, 1.0], 7.5)
+
+
+def test_branch_figures_with_the_fold_approach(tmp_path):
+    """`vesicle plot branch.json`: branch_shape.png and branch_omega.png; the fold approach of a
+    synthetic branch whose leading real eigenvalue is -0.5 sqrt(7.5 - lam) has exponent 1/2."""
+    from vesicle.branch_plots import fold_approach
+
+    pts = []
+    for lam in np.linspace(7.0, 7.49, 8):
+        w = -0.5 * np.sqrt(7.5 - lam)
+        pts.append({"lam": lam, "chi": 0.2, "v": 0.95, "psi": 0.1, "D": 0.2, "S_xz": 2.0,
+                    "omega_R": 0.0, "omega_I": w, "eigenvalues": [[0.0, w], [1.0, -2.0]],
+                    "n_unstable": 0})  # fmt: skip
+    fold = {"type": "fold", "lam": 7.5, "omega_R": 0.0, "located": True, "bracket": [7.5, 7.5]}
+    data = {"parameter": "lam", "degree": 4, "grid": 16, "physics": {"v": 0.95, "chi": 0.2},
+            "points": pts, "special_points": [fold]}  # fmt: skip
+    fit = fold_approach(data)
+    assert fit["exponent"] == pytest.approx(0.5, abs=1e-9) and fit["critical"] == 7.5
+    path = tmp_path / "b.json"
+    path.write_text(json.dumps(data))
+    r = CliRunner().invoke(main, ["plot", str(path), "--out", str(tmp_path / "fig")])
+    assert r.exit_code == 0, r.output
+    for name in ("branch_shape.png", "branch_omega.png"):
+        assert (tmp_path / "fig" / name).read_bytes()[:4] == b"\x89PNG"

@@ -112,3 +112,79 @@ def test_phase_diagram_of_neutral_files(tmp_path):
     )
     assert r.exit_code == 0, r.output
     assert (tmp_path / "fig" / "phase_diagram.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def _fake_point(self, start, chi, lam_pred):
+    """A stand-in for the tracer's point (no numerics): fails beyond chi = 2."""
+    from vesicle.neutral import NeutralPoint
+    from vesicle.steady import NewtonError
+
+    if chi > 2.0:
+        raise NewtonError(f"no stable tank-treading state found at chi = {chi:g}")
+    p = NeutralPoint(chi, 8.0 + 0.1 * chi, "hopf", 0.3 * chi, -0.01, 0.2, True, 0.0, start)
+    if self.progress is not None:
+        self.progress({k: v for k, v in p.to_dict().items() if k != "located"})
+    return p
+
+
+@pytest.fixture
+def failing_tracer(monkeypatch):
+    import vesicle.neutral as neutral
+
+    monkeypatch.setattr(neutral._Tracer, "point", _fake_point)
+    monkeypatch.setattr(neutral, "critical_lambda",
+                        lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
+    monkeypatch.setattr(neutral, "reach", lambda *a, **k: None)
+
+
+def test_a_failing_direction_keeps_what_was_found(failing_tracer, tmp_path):
+    """A point the tracer cannot reach ends its direction: the points found on both sides are
+    kept, the failure is reported with the curve, and the CLI writes them to --out (as they
+    come, and at the end) but exits non-zero."""
+    c = neutral_curve(vs.Physics(v=0.95), [0.5, 1.0, 2.0, 3.0, 4.0], DISC,
+                      locate_type_change=False)  # fmt: skip
+    assert [p.chi for p in c.points] == [0.5, 1.0, 2.0]
+    assert [f["chi"] for f in c.failed] == [3.0] and "chi = 3" in c.failed[0]["error"]
+    assert c.to_dict()["failed"] == c.failed
+    out = tmp_path / "n.json"
+    args = ["--chi", "0.5,1,2,3,4", "--grid", "16", "--degree", "4", "--no-type-change"]
+    r = CliRunner().invoke(main, ["neutral", *args, "--out", str(out)])
+    assert r.exit_code != 0 and "the curve stopped" in r.output and "chi = 3" in r.output
+    written = json.loads(out.read_text())
+    assert [p["chi"] for p in written["points"]] == [0.5, 1.0, 2.0]
+    assert written["failed"][0]["chi"] == 3.0 and written["vesicle_version"] == vs.__version__
+
+
+def _run_store(path, rows):
+    from vesicle.sweep import SweepStore
+
+    records = {f"p{i}": {"status": "done", "physics": {"v": v, "chi": chi, "lam": lam},
+                         "result": {"regime": regime, "period": 10.0}, "seconds": 1.0}
+               for i, (v, chi, lam, regime) in enumerate(rows)}  # fmt: skip
+    SweepStore(path, "f", "", "run", records).write()
+
+
+def test_phase_diagrams_with_classified_runs(tmp_path):
+    """`vesicle plot n.json --runs s.h5` overlays the regimes of a sweep of runs on the chi-lambda
+    and the S-Lambda diagrams; a sweep of another task is refused by name."""
+    points = [{"chi": c, "lambda_c": 8 + 0.1 * c, "bifurcation": "hopf", "omega_R": 0.1,
+               "psi": 0.1, "D": 0.2} for c in (0.3, 1, 5)]  # fmt: skip
+    curve = tmp_path / "n.json"
+    curve.write_text(json.dumps({"v": 0.95, "degree": 4, "grid": 16, "points": points,
+                                 "type_change": None}))  # fmt: skip
+    store = tmp_path / "runs.h5"
+    _run_store(store, [(0.95, 1.0, 7.0, "TT"), (0.95, 6.0, 9.5, "TR"), (0.95, 1.0, 12.0, "TU")])
+    from vesicle.phase_plots import runs_from_store
+
+    runs = runs_from_store(store)
+    assert sorted(r["regime"] for r in runs) == ["TR", "TT", "TU"]
+    r = CliRunner().invoke(main, ["plot", str(curve), "--runs", str(store), "--out",
+                                  str(tmp_path / "fig")])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    for name in ("phase_diagram.png", "phase_SLambda.png"):
+        assert (tmp_path / "fig" / name).read_bytes()[:4] == b"\x89PNG"
+    from vesicle.sweep import SweepStore
+
+    SweepStore(tmp_path / "tt.h5", "f", "", "tt", {}).write()
+    r = CliRunner().invoke(main, ["plot", str(curve), "--runs", str(tmp_path / "tt.h5")])
+    assert r.exit_code != 0 and "sweep of runs" in r.output

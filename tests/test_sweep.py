@@ -62,6 +62,45 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
         ),
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0, 1.0]\n', "repeats"),
         ('[sweeps]\ntask = "tt"\n', "did you mean [sweep]"),
+        (
+            '[sweep]\ntask = "branch"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+            'parameter = "mu"\nvalues = "1:3"\n',
+            "parameter must be one of",
+        ),
+        (
+            '[sweep]\ntask = "branch"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[task]\n'
+            'parameter = "lam"\nvalues = "1:3"\n',
+            "cannot also be in [grid]",
+        ),
+        (
+            '[sweep]\ntask = "branch"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+            'parameter = "lam"\n',
+            "values",
+        ),
+        (
+            '[sweep]\ntask = "branch"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+            'parameter = "v"\nvalues = "0.9:1.2:0.1"\n',
+            "v must",
+        ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\nchi = "0.1:x"\n',
+            "chi must be a range",
+        ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
+            "chi = [1.0, -2.0]\n",
+            "positive",
+        ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
+            "chi = [1.0]\npoints = 4\n",
+            "points goes with",
+        ),
+        ('[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nlam = [8.0]\n', "unknown key 'lam'"),
+        (
+            '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[task]\njacobian = "x"\n',
+            "jacobian",
+        ),
     ],
 )
 def test_bad_configs_are_refused_naming_the_key(tmp_path, body, message):
@@ -234,3 +273,42 @@ def test_sigkill_of_the_sweep_keeps_what_was_done(tmp_path):
     final = SweepStore.read(store_path)
     assert final.status() == {"done": 6, "failed": 0}
     assert all(final.records[k]["finished"] == t for k, t in before.items())
+
+
+# ------------------------------------------------------------- branch and neutral
+def test_a_branch_sweep_gives_what_branch_gives(tmp_path):
+    """task = "branch": one branch per grid point, with the keys of `vesicle branch --json` and
+    its numbers; `vesicle plot` of the store draws each branch's figures."""
+    path = write(tmp_path, '[sweep]\ntask = "branch"\nout = "b.h5"\n[grid]\nchi = [1.0]\n'
+                           '[task]\nparameter = "lam"\nvalues = "1:2:0.5"\n' + SMALL)  # fmt: skip
+    store = run_sweep(read_sweep_config(path), workers=1)
+    (record,) = store.records.values()
+    assert record["status"] == "done", record
+    result = record["result"]
+    assert [p["lam"] for p in result["points"]] == [1.0, 1.5, 2.0]
+    r = CliRunner().invoke(main, ["branch", "--chi", "1", "--lam", "1:2:0.5", "--degree", "4",
+                                  "--grid", "12", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    direct = json.loads(r.output.strip().splitlines()[-1])
+    for a, b in zip(result["points"], direct["points"], strict=True):
+        assert a["psi"] == pytest.approx(b["psi"], abs=1e-9)
+        assert a["omega_I"] == pytest.approx(b["omega_I"], abs=1e-7)
+    r = CliRunner().invoke(main, ["plot", str(tmp_path / "b.h5"), "--out", str(tmp_path / "f")])
+    assert r.exit_code == 0, r.output
+    assert len(list((tmp_path / "f").glob("*/branch_omega.png"))) == 1
+
+
+def test_a_neutral_point_that_stopped_keeps_its_points_and_counts_as_failed(monkeypatch):
+    """task = "neutral": a curve that stopped part-way is recorded as failed (a rerun retries
+    it) with the points it found and where it stopped."""
+    import vesicle.sweep as sweep
+    from vesicle.neutral import NeutralCurve
+
+    def stopped(physics, chi, disc, **options):
+        return NeutralCurve(physics, disc, [], None, [], 0.0, [{"chi": 3.0, "error": "no TT"}])
+
+    monkeypatch.setattr(sweep, "neutral_curve", stopped)
+    entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12},
+                      {"chi": [1.0, 3.0]}, {})  # fmt: skip
+    assert entry["status"] == "failed" and "before chi = 3: no TT" in entry["error"]
+    assert entry["result"]["failed"] == [{"chi": 3.0, "error": "no TT"}]

@@ -13,6 +13,7 @@ from .critical import CriticalResult, critical_lambda
 from .flows import LinearFlow
 from .io import open_run
 from .membrane import bending_energy, bending_force, membrane_force, tension_force
+from .neutral import NeutralCurve, NeutralPoint, neutral_curve
 from .parameters import Discretisation, Physics, SolverTolerances
 from .problem import SteadyProblem
 from .rheology import ParticleStress
@@ -31,6 +32,8 @@ __all__ = [
     "FlowResult",
     "LayerPotentials",
     "LinearFlow",
+    "NeutralCurve",
+    "NeutralPoint",
     "NewtonError",
     "ParticleStress",
     "Physics",
@@ -52,6 +55,7 @@ __all__ = [
     "critical_lambda",
     "double_layer",
     "membrane_force",
+    "neutral_curve",
     "open_run",
     "single_layer",
     "solve_flow",

@@ -48,6 +48,7 @@ __all__ = [
     "Branch",
     "BranchPoint",
     "SpecialPoint",
+    "approach_exponent",
     "branch",
     "parse_values",
     "reach",
@@ -188,6 +189,30 @@ def parse_values(text: str, step: float | None = None) -> list[float]:
     if not values or not all(np.isfinite(values)):
         raise ValueError(f"no finite values in {text!r}")
     return values
+
+
+def approach_exponent(values, growth, critical: float) -> dict:
+    """Fit ``|growth| = a |critical - value|^p`` by least squares in log-log.
+
+    For the real eigenvalue of a branch approaching a saddle-node (fold) at ``critical``,
+    ``p = 1/2`` (SPEC §16; the paper's Fig. 8).  Points at or past ``critical`` and zero growth
+    rates are left out.  Returns ``{"exponent", "coefficient", "points", "range"}``, the range
+    being that of ``|critical - value|`` fitted.
+    """
+    x = np.abs(float(critical) - np.asarray(values, dtype=float))
+    y = np.abs(np.asarray(growth, dtype=float))
+    keep = (x > 0) & (y > 0) & np.isfinite(x) & np.isfinite(y)
+    if keep.sum() < 2:
+        raise ValueError("approach_exponent needs at least two points short of the critical "
+                         "value with a nonzero growth rate")  # fmt: skip
+    slope, intercept = np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)
+    fitted = x[keep]
+    return {
+        "exponent": float(slope),
+        "coefficient": float(np.exp(intercept)),
+        "points": int(keep.sum()),
+        "range": [float(fitted.min()), float(fitted.max())],
+    }
 
 
 def _analyse(steady: SteadyResult, requested: bool) -> BranchPoint:

@@ -79,6 +79,7 @@ class NeutralCurve:
     type_change: dict | None
     bisection: list[NeutralPoint]
     seconds: float
+    failed: list[dict] = field(default_factory=list)  # {"chi", "error"} where a direction stopped
 
     def to_dict(self) -> dict:
         return {
@@ -91,6 +92,7 @@ class NeutralCurve:
             "points": [p.to_dict() for p in self.points],
             "type_change": self.type_change,
             "bisection": [p.to_dict() for p in self.bisection],
+            "failed": list(self.failed),
             "seconds": self.seconds,
         }
 
@@ -248,25 +250,32 @@ def neutral_curve(
     c = critical_lambda(physics.replace(chi=chis[first]), disc, xtol=xtol, **tracer.options)
     start = reach(tracer.at(chis[first], c.lambda_c * (1 - margin)), disc, **tracer.options)
     seed = tracer.point(start, chis[first], c.lambda_c)
-    traced, between = {chis[first]: seed}, []
+    traced, between, failed = {chis[first]: seed}, [], []
     for order in (chis[first + 1 :], chis[:first][::-1]):  # up, then down from the seed
         path = [seed]
         for x in order:
             steps = math.ceil(abs(math.log(x / path[-1].chi)) / math.log(CHI_RATIO) - 1e-9)
-            for k in range(1, steps + 1):  # intermediate chi where the asked ones are far apart
-                here = path[-1].chi * (x / path[-1].chi) ** (1.0 / (steps - k + 1))
-                p = tracer.point(path[-1].start, x if k == steps else here, _predict(path, here))
-                path.append(p)
-                if k < steps:
-                    between.append(p)
+            try:
+                for k in range(1, steps + 1):  # intermediate chi where the asked ones are far apart
+                    here = path[-1].chi * (x / path[-1].chi) ** (1.0 / (steps - k + 1))
+                    p = tracer.point(path[-1].start, x if k == steps else here,
+                                     _predict(path, here))  # fmt: skip
+                    path.append(p)
+                    if k < steps:
+                        between.append(p)
+            except _FAILURES as err:  # this direction ends here; the other one and the points
+                # found are kept, and the failure is reported with the curve
+                log.warning("neutral curve: stopped before chi = %.4g: %s", x, err)
+                failed.append({"chi": x, "error": str(err)})
+                break
             traced[x] = path[-1]
-    points = [traced[x] for x in chis]
+    points = [traced[x] for x in chis if x in traced]
     change, bisection = None, []
     if locate_type_change:
         change, bisection = _type_change(tracer, sorted(points + between, key=lambda p: p.chi),
                                          type_tol)  # fmt: skip
     return NeutralCurve(physics, disc, points, change, between + bisection,
-                        time.perf_counter() - t0)  # fmt: skip
+                        time.perf_counter() - t0, failed)  # fmt: skip
 
 
 def _type_change(tracer: _Tracer, points: list[NeutralPoint], tol: float):

@@ -4,7 +4,15 @@
 bifurcation type (filled: Hopf, the TR side above; open: saddle-node, the TU side above), the
 located type change as a star, and the leading-order theory's critical viscosity ratio of each
 v (:func:`vesicle.theory.misbah_critical_lambda`, independent of chi) as a dotted line.
-Tank-treading is stable below each curve.
+Tank-treading is stable below each curve.  Time-dependent runs (a ``task = "run"`` sweep store,
+``vesicle plot n.json --runs s.h5``) are overlaid by the regime their analysis found (TT, TR,
+TU).
+
+``phase_SLambda.png``: the same curves and runs in the plane of Lebedev et al. (2007),
+``S = 7 pi/(3 sqrt 3) chi v/Delta`` against ``Lambda = 4/sqrt(30 pi) sqrt(Delta) (1 + 23 lam/32)``
+(:func:`vesicle.theory.lebedev_parameters`), where the leading-order boundaries of every v
+collapse; the leading-order TT–TU boundary of strong flow, ``Lambda = 1`` (Misbah's critical
+viscosity ratio, the same for every v in this plane), is drawn dashed.
 """
 
 from __future__ import annotations
@@ -16,9 +24,12 @@ from pathlib import Path
 import numpy as np
 
 from .plots import _figure, _save
-from .theory import misbah_critical_lambda
+from .theory import lebedev_parameters, misbah_critical_lambda
 
-__all__ = ["is_neutral_file", "plot_neutral"]
+__all__ = ["REGIME_STYLE", "is_neutral_file", "plot_neutral", "runs_from_store"]
+
+#: Marker and colour of each regime of a run.
+REGIME_STYLE = {"TT": ("o", "tab:green"), "TR": ("^", "tab:orange"), "TU": ("s", "tab:red")}
 
 logger = logging.getLogger(__name__)
 
@@ -32,10 +43,49 @@ def is_neutral_file(path: str | Path) -> bool:
     return isinstance(data, dict) and {"points", "type_change", "v"} <= set(data)
 
 
-def plot_neutral(curves: list[dict], outdir: str | Path, dpi: int = 120) -> list[Path]:
-    """Draw the phase diagram of the neutral-curve dictionaries ``curves`` into ``outdir``."""
+def runs_from_store(path: str | Path) -> list[dict]:
+    """The finished points of a ``task = "run"`` sweep store as ``{"v", "chi", "lam",
+    "regime", "period"}`` (points whose analysis found no regime are kept as "undetermined")."""
+    from .sweep import SweepStore  # the sweep engine only where runs are drawn
+
+    store = SweepStore.read(path)
+    if store.task != "run":
+        raise ValueError(f"{path} is a {store.task!r} sweep; --runs takes a sweep of runs")
+    return [{"v": r["v"], "chi": r["chi"], "lam": r["lam"],
+             "regime": r.get("regime") or "undetermined", "period": r.get("period")}
+            for r in store.rows() if r["status"] == "done"]  # fmt: skip
+
+
+def _scatter_runs(ax, runs: list[dict], xy) -> None:
+    seen = set()
+    for r in runs:
+        marker, color = REGIME_STYLE.get(r["regime"], ("x", "0.4"))
+        label = None if r["regime"] in seen else f"run: {r['regime']}"
+        seen.add(r["regime"])
+        x, y = xy(r)
+        ax.scatter([x], [y], marker=marker, color=color, s=46, edgecolor="k", lw=0.5,
+                   zorder=5, label=label)  # fmt: skip
+
+
+def plot_neutral(
+    curves: list[dict], outdir: str | Path, dpi: int = 120, runs: list[dict] | None = None
+) -> list[Path]:
+    """Draw the phase diagrams of the neutral-curve dictionaries ``curves`` (and the classified
+    ``runs``, see :func:`runs_from_store`) into ``outdir``."""
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
+    runs = runs or []
+    paths = [_chi_lambda(curves, runs, outdir, dpi), _s_lambda(curves, runs, outdir, dpi)]
+    for p in paths:
+        logger.info("wrote %s", p)
+    return paths
+
+
+def _label(curve: dict) -> str:
+    return f"v = {curve['v']:g}, N = {curve['degree']} ({curve['grid']}×{2 * curve['grid']})"
+
+
+def _chi_lambda(curves, runs, outdir, dpi) -> Path:
     fig = _figure((6.4, 4.6))
     ax = fig.add_subplot()
     for k, curve in enumerate(curves):
@@ -44,8 +94,7 @@ def plot_neutral(curves: list[dict], outdir: str | Path, dpi: int = 120) -> list
         chi = np.array([p["chi"] for p in pts])
         lam = np.array([p["lambda_c"] for p in pts])
         hopf = np.array([p["bifurcation"] == "hopf" for p in pts])
-        label = f"v = {curve['v']:g}, N = {curve['degree']} ({curve['grid']}×{2 * curve['grid']})"
-        ax.plot(chi, lam, color=color, lw=1.4, label=label)
+        ax.plot(chi, lam, color=color, lw=1.4, label=_label(curve))
         ax.scatter(chi[hopf], lam[hopf], color=color, s=28, zorder=3)
         ax.scatter(chi[~hopf], lam[~hopf], facecolor="white", edgecolor=color, s=28, zorder=3)
         change = curve.get("type_change")
@@ -55,6 +104,7 @@ def plot_neutral(curves: list[dict], outdir: str | Path, dpi: int = 120) -> list
         theory = misbah_critical_lambda(curve["v"])
         if np.isfinite(theory):
             ax.axhline(theory, color=color, ls=":", lw=1.0)
+    _scatter_runs(ax, runs, lambda r: (r["chi"], r["lam"]))
     ax.set_xscale("log")
     ax.set_xlabel(r"$\chi$ (shear rate)")
     ax.set_ylabel(r"$\lambda_c$")
@@ -64,6 +114,28 @@ def plot_neutral(curves: list[dict], outdir: str | Path, dpi: int = 120) -> list
     ax.plot([], [], color="0.3", ls=":", lw=1.0, label="leading-order theory")
     ax.legend(loc="best", fontsize="x-small")
     ax.set_title("neutral curves: TT stable below", fontsize="medium")
-    paths = [_save(fig, outdir / "phase_diagram.png", dpi)]
-    logger.info("wrote %s", paths[0])
-    return paths
+    return _save(fig, outdir / "phase_diagram.png", dpi)
+
+
+def _s_lambda(curves, runs, outdir, dpi) -> Path:
+    fig = _figure((6.4, 4.6))
+    ax = fig.add_subplot()
+    for k, curve in enumerate(curves):
+        color = f"C{k}"
+        pts = sorted(curve["points"], key=lambda p: p["chi"])
+        sl = np.array([lebedev_parameters(curve["v"], p["chi"], p["lambda_c"]) for p in pts])
+        hopf = np.array([p["bifurcation"] == "hopf" for p in pts])
+        ax.plot(sl[:, 0], sl[:, 1], color=color, lw=1.4, label=_label(curve))
+        ax.scatter(sl[hopf, 0], sl[hopf, 1], color=color, s=28, zorder=3)
+        ax.scatter(sl[~hopf, 0], sl[~hopf, 1], facecolor="white", edgecolor=color, s=28,
+                   zorder=3)  # fmt: skip
+    _scatter_runs(ax, runs, lambda r: lebedev_parameters(r["v"], r["chi"], r["lam"]))
+    ax.axhline(1.0, color="k", ls="--", lw=1.0,
+               label=r"leading order, strong flow: $\Lambda = 1$ (TT–TU)")  # fmt: skip
+    ax.set_xscale("log")
+    ax.set_xlabel(r"$S = 7\pi\chi v / (3\sqrt{3}\,\Delta)$")
+    ax.set_ylabel(r"$\Lambda = 4\sqrt{\Delta/(30\pi)}\,(1 + 23\lambda/32)$")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(loc="best", fontsize="x-small")
+    ax.set_title("neutral curves in the S–Λ plane (Lebedev et al. 2007)", fontsize="medium")
+    return _save(fig, outdir / "phase_SLambda.png", dpi)

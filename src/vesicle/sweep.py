@@ -4,7 +4,7 @@ A sweep is a task (:data:`TASKS`) evaluated at every point of a parameter grid. 
 TOML file::
 
     [sweep]
-    task = "tt"            # tt | stability | critical | run
+    task = "tt"            # tt | stability | critical | branch | neutral | run
     out = "s.h5"           # the results store (relative to the config file's folder)
     points = "product"     # the Cartesian product of [grid] (default), or "list": the i-th
                            #   values of every [grid] list together
@@ -19,7 +19,15 @@ TOML file::
     [solver]               # velocity-solve tolerances of "run" points
     [run]                  # the run settings of "run" points (t_end, save_every, ...)
     [task]                 # task options: modes ("symmetric" | "general") for stability,
-                           #   jacobian, max_iterations, xtol for critical
+                           #   jacobian, max_iterations, xtol for critical; for branch:
+                           #   parameter ("lam" | "chi" | "v", not in [grid]) and values
+                           #   ("1:9", "1:9:0.5" or a list), past_fold, xtol; for neutral:
+                           #   chi ("0.1:10" with points, or a list), xtol, type_tol,
+                           #   locate_type_change
+
+A ``branch`` point is a whole branch at the fixed values of its grid point (e.g. one per v and
+chi, continued in lam), a ``neutral`` point a whole neutral curve at its v: sweeps of these run
+whole branches or curves side by side on the workers.
 
 Every point is keyed by its parameters (:attr:`vesicle.Physics.key`).  Results come back to the
 process that runs the sweep and are written, one completed point at a time, to the store by an
@@ -51,17 +59,26 @@ import numpy as np
 
 from . import __version__
 from .analysis import summarize
-from .branch import reach
+from .branch import PARAMETERS, branch, parse_values, reach
 from .config import SECTIONS, ConfigError, solver_from
 from .critical import critical_lambda, critical_summary
 from .dynamics import RunParameters
 from .io import open_file, stamp, write_atomically
+from .neutral import neutral_curve
 from .parameters import Discretisation, Physics
 from .simulation import simulate
 from .stability import stability
 from .steady_io import steady_summary
 
-__all__ = ["TASKS", "SweepConfig", "SweepStore", "load", "read_sweep_config", "run_sweep"]
+__all__ = [
+    "TASKS",
+    "SweepConfig",
+    "SweepStore",
+    "is_sweep_store",
+    "load",
+    "read_sweep_config",
+    "run_sweep",
+]
 
 log = logging.getLogger(__name__)
 
@@ -90,6 +107,37 @@ def _critical(physics: Physics, disc: Discretisation, options: dict, settings: d
     return critical_summary(c, physics, disc)
 
 
+def _branch_values(options: dict) -> list[float]:
+    return parse_values(str(options["values"]) if not isinstance(options["values"], list)
+                        else ",".join(str(x) for x in options["values"]))  # fmt: skip
+
+
+def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    name = options["parameter"]
+    values = _branch_values(options)
+    start = physics.replace(**{name: values[0]})
+    keys = ("jacobian", "xtol", "past_fold")
+    b = branch(start, disc, name, values, **{k: options[k] for k in keys if k in options})
+    fixed = {k: x for k, x in physics.to_dict().items() if k != name}
+    return {"vesicle_version": __version__, "physics": fixed, "discretisation": disc.to_dict(),
+            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **b.to_dict()}  # fmt: skip
+
+
+def _neutral_chi(options: dict) -> list[float]:
+    chi = options.get("chi", "0.1:10")
+    if isinstance(chi, list):
+        return [float(x) for x in chi]
+    lo, hi = (float(x) for x in str(chi).split(":"))
+    return [float(x) for x in np.geomspace(lo, hi, int(options.get("points", 10)))]
+
+
+def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    keys = ("jacobian", "xtol", "type_tol", "locate_type_change")
+    c = neutral_curve(physics, _neutral_chi(options), disc,
+                      **{k: options[k] for k in keys if k in options})  # fmt: skip
+    return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
+
+
 def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     params = RunParameters(physics, disc, settings.get("solver"), **settings.get("run", {}))
     run = simulate(params)
@@ -112,11 +160,18 @@ TASKS = {
     "tt": Task(_tt, GRID_KEYS, ("jacobian", "max_iterations")),
     "stability": Task(_stability, GRID_KEYS, ("jacobian", "max_iterations", "modes")),
     "critical": Task(_critical, ("v", "chi"), ("jacobian", "max_iterations", "xtol", "lam0")),
+    "branch": Task(_branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold")),
+    "neutral": Task(
+        _neutral, ("v",), ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change")
+    ),
     "run": Task(_run, GRID_KEYS, ()),
 }
 
 _TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
-               "xtol": (int, float), "lam0": (int, float)}  # fmt: skip
+               "xtol": (int, float), "lam0": (int, float), "parameter": (str,),
+               "values": (str, list), "past_fold": (int,), "chi": (str, list),
+               "points": (int,), "type_tol": (int, float),
+               "locate_type_change": (bool,)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
@@ -237,6 +292,7 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
         if "modes" in options and options["modes"] not in ("symmetric", "general"):
             raise ValueError(f"[task] modes must be 'symmetric' or 'general', got "
                              f"{options['modes']!r}")  # fmt: skip
+        _check_task(task, options, grid, points)
     except (ValueError, TypeError) as err:
         raise ConfigError(f"{path}: {err}") from None
     if len({p.key for p in points}) != len(points):
@@ -245,6 +301,40 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
     if not out.is_absolute():
         out = path.parent / out
     return SweepConfig(path, task, out, points, disc, options, settings, text)
+
+
+def _check_task(task: str, options: dict, grid: dict, points) -> None:
+    """The branch and neutral tasks' own options (raises ValueError naming the key)."""
+    if task == "branch":
+        name = options.get("parameter")
+        if name not in PARAMETERS:
+            raise ValueError(f"[task] parameter must be one of {', '.join(PARAMETERS)} for "
+                             f"task = 'branch', got {name!r}")  # fmt: skip
+        if name in grid:
+            raise ValueError(f"[task] parameter {name!r} is continued along each branch: it "
+                             f"cannot also be in [grid]")  # fmt: skip
+        if "values" not in options:
+            raise ValueError("[task] values (e.g. \"1:9\" or [1, 2, 4]) are needed for "
+                             "task = 'branch'")  # fmt: skip
+        values = _branch_values(options)
+        for p in points:
+            for x in values:
+                p.replace(**{name: x})
+    if task == "neutral":
+        if "points" in options and not (isinstance(options.get("chi"), str) and
+                                        options["points"] >= 2):  # fmt: skip
+            raise ValueError("[task] points goes with a chi range \"LOW:HIGH\" and must be "
+                             "at least 2")  # fmt: skip
+        try:
+            chis = _neutral_chi(options)
+        except ValueError:
+            raise ValueError(f"[task] chi must be a range \"LOW:HIGH\" or a list, got "
+                             f"{options.get('chi')!r}") from None  # fmt: skip
+        if not chis or any(not (c > 0 and np.isfinite(c)) for c in chis):
+            raise ValueError(f"[task] chi values must be positive, got {options.get('chi')!r}")
+    if "jacobian" in options and options["jacobian"] not in ("linearised", "differences"):
+        raise ValueError(f"[task] jacobian must be 'linearised' or 'differences', got "
+                         f"{options['jacobian']!r}")  # fmt: skip
 
 
 # ------------------------------------------------------------------------ store
@@ -337,6 +427,15 @@ class SweepStore:
         return sorted(rows, key=lambda row: tuple(row.get(k, 0.0) for k in GRID_KEYS))
 
 
+def is_sweep_store(path: str | os.PathLike) -> bool:
+    """Whether ``path`` is a sweep store (an HDF5 file of this format)."""
+    try:
+        with h5py.File(path, "r") as f:
+            return str(f.attrs.get("format", "")) == FORMAT
+    except (OSError, ValueError):
+        return False
+
+
 def load(path: str | os.PathLike):
     """A sweep store as a :class:`pandas.DataFrame`: one row per point, its parameters, status
     and the scalar results (lists and tables of a point stay in :meth:`SweepStore.rows`)."""
@@ -356,6 +455,10 @@ def run_point(task: str, physics: dict, disc: dict, options: dict, settings: dic
             Physics.from_dict(physics), Discretisation.from_dict(disc), options, settings
         )
         entry = {"status": "done", "result": _plain(result)}
+        if result.get("failed"):  # a neutral curve that stopped: what it found is kept, and
+            # the point counts as failed (a rerun tries it again)
+            where = [f"before chi = {f['chi']:.4g}: {f['error']}" for f in result["failed"]]
+            entry.update(status="failed", error="the curve stopped: " + "; ".join(where))
     except Exception as err:
         entry = {"status": "failed", "error": f"{type(err).__name__}: {err}",
                  "traceback": traceback.format_exc(limit=6)}  # fmt: skip

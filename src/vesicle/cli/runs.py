@@ -14,11 +14,12 @@ import click
 from tqdm import tqdm
 
 from ..analysis import summarize
+from ..branch_plots import is_branch_file, plot_branch
 from ..config import read_config, solver_from, to_toml
 from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
 from ..io import SERIES, RunData, read_run
 from ..parameters import SolverTolerances
-from ..phase_plots import is_neutral_file, plot_neutral
+from ..phase_plots import is_neutral_file, plot_neutral, runs_from_store
 from ..plots import plot_run
 from ..simulation import SimulationError, load_parameters, simulate
 from ..solver import SolverError
@@ -26,6 +27,7 @@ from ..steady import NewtonError, steady_tank_treading
 from ..steady_io import is_steady_file, read_steady
 from ..steady_plots import plot_steady
 from ..surface import ShapeError
+from ..sweep import SweepStore, is_sweep_store
 from ..vtk import export_vtk
 from .base import command_line, fail, main, with_version
 from .options import (
@@ -448,26 +450,36 @@ def analyze(file, as_json, as_csv) -> None:
     type=click.Path(exists=True, dir_okay=False),
     help="Further neutral-curve files drawn on the same phase diagram (repeatable).",
 )
-def plot(file, outdir, others) -> None:
+@click.option(
+    "--runs",
+    "runs_store",
+    type=click.Path(exists=True, dir_okay=False),
+    help='A sweep store of time-dependent runs (task = "run") whose regimes (TT/TR/TU) are '
+    "overlaid on the phase diagrams.",
+)
+def plot(file, outdir, others, runs_store) -> None:
     """PNG figures of a run (psi(t), D(t), S(t), D-psi orbit, shape projections, axes), of a
     steady-state file of ``vesicle tt --out`` (spectrum_eigenvalues, spectrum_El,
-    eigenmode_1, eigenmode_2) or of neutral curves of ``vesicle neutral --out``
-    (phase_diagram)."""
+    eigenmode_1, eigenmode_2), of a branch of ``vesicle branch --out`` (branch_shape,
+    branch_omega) or of neutral curves of ``vesicle neutral --out`` (phase_diagram,
+    phase_SLambda; with --runs, the regimes of a sweep of runs on both)."""
     folder = outdir or Path(file).with_suffix("")
+    if is_sweep_store(file):
+        _plot_sweep(file, folder, others, runs_store)
+        return
     if is_neutral_file(file):
-        bad = [f for f in others if not is_neutral_file(f)]
-        if bad:
-            fail(f"--with takes neutral-curve files; {bad[0]} is not one")
+        _plot_curves([json.loads(Path(file).read_text())], folder, others, runs_store)
+        return
+    if others or runs_store:
+        fail("--with and --runs go with a neutral-curve file")
+    if is_branch_file(file):
         try:
-            paths = plot_neutral([json.loads(Path(f).read_text()) for f in (file, *others)],
-                                 folder)  # fmt: skip
+            paths = plot_branch(json.loads(Path(file).read_text()), folder)
         except OSError as err:
             fail(f"cannot write the figures: {err}")
         for p in paths:
             click.echo(str(p))
         return
-    if others:
-        fail("--with goes with a neutral-curve file")
     if is_steady_file(file):
         try:
             paths = plot_steady(read_steady(file), folder)
@@ -485,6 +497,56 @@ def plot(file, outdir, others) -> None:
         fail(f"cannot write the figures: {err}")
     for p in paths:
         click.echo(str(p))
+
+
+def _plot_curves(curves: list[dict], folder, others, runs_store) -> None:
+    """The phase diagrams of ``curves`` and the neutral-curve files ``others``, with the runs
+    of a sweep store."""
+    bad = [f for f in others if not is_neutral_file(f)]
+    if bad:
+        fail(f"--with takes neutral-curve files; {bad[0]} is not one")
+    try:
+        runs = runs_from_store(runs_store) if runs_store else None
+    except (OSError, ValueError, KeyError) as err:
+        fail(f"--runs: {err}")
+    curves = curves + [json.loads(Path(f).read_text()) for f in others]
+    if not curves and not runs:
+        fail("nothing to draw: no neutral curve and no classified run")
+    try:
+        paths = plot_neutral(curves, folder, runs=runs)
+    except OSError as err:
+        fail(f"cannot write the figures: {err}")
+    for p in paths:
+        click.echo(str(p))
+
+
+def _plot_sweep(file, folder, others, runs_store) -> None:
+    """A sweep store: its neutral curves (task neutral) or its classified runs (task run) on
+    the phase diagrams, or each branch's figures in a subfolder (task branch)."""
+    try:
+        store = SweepStore.read(file)
+    except (OSError, ValueError, KeyError) as err:
+        fail(f"cannot read {file}: {err}")
+    results = [(key, r["result"]) for key, r in store.records.items() if r.get("result")]
+    if store.task == "neutral":
+        _plot_curves([r for _, r in results if r.get("points")], folder, others, runs_store)
+    elif store.task == "run":
+        if runs_store:
+            fail("--runs goes with a neutral-curve file; this store is itself a sweep of runs")
+        _plot_curves([], folder, others, file)
+    elif store.task == "branch":
+        if others or runs_store:
+            fail("--with and --runs go with neutral curves")
+        for key, r in results:
+            try:
+                paths = plot_branch(r, Path(folder) / key)
+            except OSError as err:
+                fail(f"cannot write the figures: {err}")
+            for p in paths:
+                click.echo(str(p))
+    else:
+        fail(f"vesicle plot draws sweeps of neutral curves, branches and runs; this one is "
+             f"{store.task!r} (vesicle sweep CONFIG --table gives its rows)")  # fmt: skip
 
 
 @main.command()

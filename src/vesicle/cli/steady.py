@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 import numpy as np
 
+from .. import __version__
 from ..branch import branch, parse_values, reach
 from ..config import read_config
 from ..critical import critical_lambda, critical_summary
@@ -442,18 +443,34 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, jacob
     chis = _chi_values(chi_text, points)
     if out is not None:
         _writable(Path(out))
+    found: list[dict] = []
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
+
+        def progress(info: dict) -> None:  # each point echoed, and kept in --out as it comes
+            _echo_progress(info)
+            found.append(info)
+            if out is not None:
+                partial = {"vesicle_version": __version__, "v": physics.v,
+                           "degree": disc.degree, "grid": disc.grid, "partial": True,
+                           "command": command_line(ctx),
+                           "points": sorted(found, key=lambda p: p["chi"])}  # fmt: skip
+                _emit_json(partial, out, False)
+
         with _executor(workers, scheduler) as pool:
             curve = neutral_curve(physics, chis, disc, xtol=xtol, type_tol=type_tol,
-                                  locate_type_change=not no_type_change, progress=_echo_progress,
+                                  locate_type_change=not no_type_change, progress=progress,
                                   jacobian=jacobian, executor=pool)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
-        fail(str(err))
-    result = curve.to_dict()
+        fail(str(err) + (f" (the points found are in {out})" if out and found else ""))
+    result = {**curve.to_dict(), "command": command_line(ctx)}
     if states is not None:  # the stable state just below each critical point
         _write_states(ctx, states, [(f"chi_{p.chi:.6g}", p.start) for p in curve.points])
+    if curve.failed:  # what was found is written; the command still fails
+        _emit_json(result, out, as_json)
+        fail("the curve stopped: " + "; ".join(f"before chi = {f['chi']:.4g}: {f['error']}"
+                                              for f in curve.failed))  # fmt: skip
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:

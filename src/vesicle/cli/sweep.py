@@ -58,7 +58,8 @@ def _progress_printer():
 @click.option("--csv", "as_csv", is_flag=True, help="--table as CSV.")
 def sweep_command(config_path, workers, scheduler, show_status, show_table, as_json,
                   as_csv) -> None:  # fmt: skip
-    """Run a task (tt, stability, critical, run) over the points of CONFIG.toml, resumably.
+    """Run a task (tt, stability, critical, branch, neutral, run) over the points of
+    CONFIG.toml, resumably.
 
     Every completed point is written to the store ([sweep] out) at once; a rerun skips the
     points done. --status and --table read the store and compute nothing.
