@@ -218,3 +218,20 @@ def test_off_surface_evaluation_jump_relations_and_accuracy():
     lap_G = 2 * np.eye(3) / r**3 - 6 * x @ x.T / r**5
     exact = 4 * np.pi * (G + lap_G / 6) @ c
     np.testing.assert_allclose(evaluate_single_layer(s, const, x)[:, 0], exact, rtol=1e-12)
+
+
+@pytest.mark.parametrize("n_theta, n_rot", [(16, 16), (16, 8), (24, 12), (32, 32)])
+def test_pull_back_dft_product_matches_the_fft_reference(n_theta, n_rot):
+    """The pull-back's phi' transform as one real DFT product (the default) against the FFT of
+    every column (the reference path), including grids where the orders alias (n_rot = 8 at
+    16x32: lmax + 1 = 16 > n_rot_phi / 2 + 1 = 9)."""
+    from vesicle.stokes import singular_quadrature
+
+    q = singular_quadrature(n_theta, n_rot)
+    v = np.random.default_rng(n_rot).standard_normal((q.n_nodes, 6, 2 * n_theta))
+    for i in (0, n_theta // 2):
+        fast, ref = q.pull_back_unphased(i, v, "gemm"), q.pull_back_unphased(i, v, "fft")
+        for a, b in zip(fast, ref, strict=True):
+            assert np.max(np.abs(a - b)) <= 1e-13 * np.max(np.abs(b))
+    with pytest.raises(ValueError, match="gemm"):
+        q.pull_back_unphased(0, v, "dft")

@@ -218,26 +218,48 @@ class SingularQuadrature:
         return vals.reshape(self.n_nodes, c.shape[0], -1)
 
     # --------------------------------------------------------- adjoint (rows)
-    def pull_back_unphased(self, i: int, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    #: How :meth:`pull_back_unphased` transforms in phi': ``"gemm"`` (default: one real DFT
+    #: matrix product, only the orders m <= lmax, into contiguous Re/Im blocks) or ``"fft"``
+    #: (the reference: an FFT of every column, then the orders taken out).
+    pull_back_transform = "gemm"
+
+    @cached_property
+    def _dft_rows(self) -> np.ndarray:
+        """``[cos(m phi'_j); -sin(m phi'_j)]`` for m = 0..lmax: (2 (lmax+1), n_rot_phi), the
+        forward DFT's real and imaginary rows (aliased orders m >= n_rot_phi wrap, as the FFT
+        path's index m mod n_rot_phi does)."""
+        angles = np.outer(np.arange(self.lmax + 1), self.phi_rot)
+        return np.concatenate([np.cos(angles), -np.sin(angles)])
+
+    def pull_back_unphased(
+        self, i: int, v: np.ndarray, transform: str | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`pull_back` before the adjoint z-phase: ``(Re, Im)``, each (T, b, K), of the
         y-rotated coefficients; the phase ``e^{-i m phi_k}`` (:attr:`phase_parts`) turns them
-        into the rows."""
+        into the rows.  ``transform``: see :attr:`pull_back_transform`."""
         _, b, k = v.shape
         n = self.lmax + 1
         vals = v.reshape(self.n_rot_phi, self.n_rot, b * k)
-        if n <= self.n_rot_phi // 2 + 1:
-            F = ducc0.fft.r2c(vals, axes=(0,), forward=True, inorm=0)[:n]  # (m, a, B)
+        transform = transform or self.pull_back_transform
+        if transform == "gemm":
+            F = (self._dft_rows @ vals.reshape(self.n_rot_phi, -1)).reshape(2, n, self.n_rot, -1)
+            real_imag = (F[0], F[1])
+        elif transform == "fft":
+            if n <= self.n_rot_phi // 2 + 1:
+                G = ducc0.fft.r2c(vals, axes=(0,), forward=True, inorm=0)[:n]  # (m, a, B)
+            else:
+                G = ducc0.fft.c2c(vals.astype(np.complex128), axes=(0,), forward=True, inorm=0)
+                G = G[np.arange(n) % self.n_rot_phi]
+            real_imag = (np.ascontiguousarray(G.real), np.ascontiguousarray(G.imag))
         else:
-            G = ducc0.fft.c2c(vals.astype(np.complex128), axes=(0,), forward=True, inorm=0)
-            F = G[np.arange(n) % self.n_rot_phi]
+            raise ValueError(f"transform must be 'gemm' or 'fft', got {transform!r}")
         # Only l >= m (and m' <= l) is non-zero: loop over orders and degrees so that the
         # Legendre and Wigner products skip the zero halves (a third of the full products),
         # and write the Wigner output straight into the packed triangle.
         adj = self._legendre_adjoint  # (m, l, a), w_m included
         plusT, minusT = self.wigner[2:]
         parts = []
-        for part, wig in ((F.real, plusT[i]), (F.imag, minusT[i])):
-            part = np.ascontiguousarray(part)
+        for part, wig in zip(real_imag, (plusT[i], minusT[i]), strict=True):
             c = np.empty((n, n, b * k))  # (l, m', B); only m' <= l is set and read
             for m in range(n):
                 c[m:, m] = adj[m, m:] @ part[m]
