@@ -59,6 +59,10 @@ log = logging.getLogger(__name__)
 #: The parameters a branch may vary.
 PARAMETERS = ("lam", "chi", "v")
 
+#: The reduced volume of the last easier start of :func:`reach` (for smaller v): Newton from the
+#: tilted spheroid converges there at lam = chi = 1, and the state is continued in v.
+EASY_V = 0.95
+
 #: Leading eigenvalues stored per point.
 LEADING = 6
 
@@ -105,6 +109,7 @@ class BranchPoint:
             "lam": p.lam, "chi": p.chi, "v": p.v,
             "psi": r.psi, "D": r.D, "axes": r.axes.tolist(),
             **r.stress.summary(),
+            "bending": r.split["bending"].summary(), "flow": r.split["flow"].summary(),
             "omega_R": w_r, "omega_I": w_i,
             "eigenvalues": self.omega.tolist(),
             "n_unstable": self.n_unstable, "oscillatory": self.oscillatory,
@@ -475,8 +480,9 @@ def reach(
     continuation from an easier point, automatically.
 
     The easier points are ``chi = 1`` at the same ``v`` and ``lam``, then ``lam = 1, chi = 1``
-    (Newton from the tilted spheroid converges there); the state is then continued in ``lam``
-    and in ``chi`` to the target, ``legs`` geometric steps each (halved where a step fails).
+    (Newton from the tilted spheroid converges there), and for ``v`` below :data:`EASY_V` also
+    ``v = EASY_V, lam = 1, chi = 1``; the state is then continued in ``v``, ``lam`` and ``chi``
+    to the target, ``legs`` geometric steps each (halved where a step fails).
     A state that Newton finds from the default start with a real unstable mode is another
     branch's (the saddle half of a fold, or a state Newton wandered to: at lam = 3.7, chi = 1,
     N = 4 it lands on psi = -0.60 with a growth rate 3.7): the continued state replaces it;
@@ -492,8 +498,10 @@ def reach(
         direct = steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
     except (NewtonError, ShapeError, SolverError) as err:
         first = err
-    easier = [e for e in (physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0))
-              if e != physics]  # fmt: skip
+    easier = [physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0)]
+    if physics.v < EASY_V:  # Newton from the spheroid fails at lam = chi = 1 for v = 0.90 (N = 4)
+        easier.append(physics.replace(chi=1.0, lam=1.0, v=EASY_V))
+    easier = list(dict.fromkeys(e for e in easier if e != physics))
     if direct is not None:
         w_r, w_i = stability(direct).most_unstable
         if not (w_i > 0 and (w_r <= REAL_TOLERANCE or verify_unstable) and easier):
@@ -524,11 +532,13 @@ def reach(
             return direct
         raise NewtonError(
             f"no steady TT state at lam = {physics.lam:g}, chi = {physics.chi:g}: Newton from the "
-            f"default start failed ({first}), and so did the easier starts at chi = 1"
+            f"default start failed ({first}), and so did the easier starts at chi = 1 (and "
+            f"lam = 1, v = {EASY_V:g})"
         )
+    moved = f"v = {start.physics.v:g}, " if start.physics.v != physics.v else ""
     say(f"{first} at lam = {physics.lam:g}, chi = {physics.chi:g}; continuing from "
-        f"lam = {start.lam:g}, chi = {start.chi:g}")  # fmt: skip
-    for name in ("lam", "chi"):
+        f"{moved}lam = {start.lam:g}, chi = {start.chi:g}")  # fmt: skip
+    for name in ("v", "lam", "chi"):
         here, there = getattr(start.physics, name), getattr(physics, name)
         if here == there:
             continue

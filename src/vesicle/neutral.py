@@ -61,6 +61,8 @@ class NeutralPoint:
     D: float
     located: bool
     seconds: float
+    #: a stable state on the branch at least half a margin below lambda_c where there is one
+    #: (else the nearest below): where the next chi starts, and the state `--states` writes
     start: SteadyResult | None = field(default=None, repr=False, compare=False)
 
     def to_dict(self) -> dict:
@@ -182,11 +184,19 @@ class _Tracer:
         special, b = self.crossing(state, lam_pred)
         below = [p for p in b.points if p.physics.lam <= special.value and p.most_unstable[1] < 0]
         nearest: BranchPoint = max(below, key=lambda p: p.physics.lam) if below else b.points[0]
+        # the next chi starts from a state half a margin or more below lambda_c: at a fold the
+        # branch's Jacobian in lam is singular, and a natural step from next to it diverges
+        # (N = 4, chi = 0.215: from lam = 7.49025, 1e-4 below the fold, every step down failed)
+        limit = special.value * (1.0 - 0.5 * self.margin)
+        away = [(p.physics.lam, p.steady) for p in below if p.physics.lam <= limit]
+        if state.lam <= limit:  # the stable state this chi started from
+            away.append((state.lam, state))
+        start_from = max(away, key=lambda c: c[0])[1] if away else nearest.steady
         kind = "hopf" if special.kind == "hopf" else "saddle-node"
         p = NeutralPoint(float(chi), float(special.value), kind, float(special.omega_R),
                          float(nearest.steady.psi), float(nearest.steady.D),
                          bool(special.located), time.perf_counter() - t0,
-                         nearest.steady)  # fmt: skip
+                         start_from)  # fmt: skip
         log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c, kind,
                  p.omega_R)  # fmt: skip
         if self.progress is not None:

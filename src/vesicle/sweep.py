@@ -242,12 +242,15 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
         raise ConfigError(f"no sweep configuration at {path}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:
         raise ConfigError(f"{path} is not valid TOML: {err}") from None
-    tables = ("sweep", "grid", "physics", "discretisation", "solver", "run", "task")
+    # [study]: a study's description and figure (vesicle.study); the engine only keeps it
+    tables = ("sweep", "grid", "physics", "discretisation", "solver", "run", "task", "study")
     for section in data:
         if section not in tables:
             hint = difflib.get_close_matches(section, tables, n=1)
             _fail(path, f"unknown table [{section}]" + (f" (did you mean [{hint[0]}]?)" if hint
                   else ""))  # fmt: skip
+    if not isinstance(data.get("study", {}), dict):
+        _fail(path, "[study] must be a table")
     sweep = data.get("sweep")
     if not isinstance(sweep, dict) or "task" not in sweep or "out" not in sweep:
         _fail(path, "needs a [sweep] table with task and out")

@@ -1,0 +1,242 @@
+"""Parametric studies of the paper (issue 14): ready-made sweeps with their figures and tables.
+
+A study is a TOML file (those shipped are in ``vesicle/studies/``; any path works too): a sweep
+configuration as :func:`vesicle.sweep.read_sweep_config` reads it (without ``out``), a
+``[study]`` table that says what it is and how to draw it, and an optional ``[quick]`` table
+whose sub-tables (``[quick.discretisation]``, ``[quick.task]``, ``[quick.grid]``) replace those
+keys for ``--quick`` (reduced resolution)::
+
+    [study]
+    title = "Figure 4: ..."
+    figure = "branches"      # the only kind so far: y against the branch parameter
+    x = "chi"                # the branch parameter, or "Delta" (excess area) for v-branches
+    xscale = "log"           # or "linear" (default)
+    y = ["psi", "D"]         # point keys; "bending.S_xz" / "flow.S_xz" for the split
+    curves = "lam"           # the grid key that names each curve
+    theory = "misbah_psi"    # optional: a leading-order curve beside each (THEORIES)
+    cost = "..."             # measured cost, shown by --list
+
+:func:`run_study` writes the sweep config into the output folder (``DIR/NAME.toml``), runs it
+on the sweep engine (resumable: a second call computes only what is missing) and draws
+``DIR/NAME.png`` with the table ``DIR/NAME.csv`` (one row per branch point: the curve's
+parameters, x, every y, stability).
+"""
+
+from __future__ import annotations
+
+import csv
+import logging
+import tomllib
+from collections.abc import Callable
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .sweep import SweepStore, read_sweep_config, run_sweep
+from .theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
+
+__all__ = ["THEORIES", "list_studies", "load_study", "plot_study", "run_study", "study_rows"]
+
+log = logging.getLogger(__name__)
+
+#: Leading-order theories drawn beside a study's curves: (v, lam, chi) -> {y key: value}.
+THEORIES: dict[str, Callable[[float, float, float], dict]] = {
+    "misbah_psi": lambda v, lam, chi: {"psi": misbah_tt_inclination(v, lam)},
+    "danker_misbah_tt": lambda v, lam, chi: danker_misbah_tt_rheology(v, lam),
+}
+
+_STUDY_KEYS = {"title", "figure", "x", "xscale", "y", "curves", "theory", "cost", "notes"}
+_FIGURES = ("branches",)
+
+
+def _shipped() -> dict[str, Path]:
+    folder = resources.files("vesicle") / "studies"
+    return {Path(str(p)).stem: Path(str(p)) for p in folder.iterdir() if str(p).endswith(".toml")}
+
+
+def list_studies() -> dict[str, dict]:
+    """The shipped studies: name -> their ``[study]`` table."""
+    return {name: load_study(name)[0] for name in sorted(_shipped())}
+
+
+def load_study(name_or_path: str | Path, quick: bool = False) -> tuple[dict, dict]:
+    """``(study table, sweep tables)`` of a shipped study's name or a TOML path, with the
+    ``[quick]`` replacements applied when ``quick``; errors name the file and the key."""
+    shipped = _shipped()
+    path = shipped.get(str(name_or_path), Path(name_or_path))
+    if not path.is_file():
+        raise ValueError(f"no study {name_or_path!r}: the shipped ones are "
+                         f"{', '.join(sorted(shipped))} (or give a TOML path)")  # fmt: skip
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as err:
+        raise ValueError(f"{path} is not valid TOML: {err}") from None
+    study = data.pop("study", None)
+    if not isinstance(study, dict):
+        raise ValueError(f"{path}: a study needs a [study] table")
+    unknown = sorted(set(study) - _STUDY_KEYS)
+    if unknown:
+        raise ValueError(f"{path}: unknown key(s) {', '.join(unknown)} in [study]; expected "
+                         f"{', '.join(sorted(_STUDY_KEYS))}")  # fmt: skip
+    if study.get("figure", "branches") not in _FIGURES:
+        raise ValueError(f"{path}: [study] figure must be one of {_FIGURES}")
+    if study.get("theory") is not None and study["theory"] not in THEORIES:
+        raise ValueError(f"{path}: [study] theory must be one of {', '.join(THEORIES)}")
+    if not isinstance(study.get("y"), list) or not study["y"]:
+        raise ValueError(f"{path}: [study] y must be a list of point keys")
+    replacements = data.pop("quick", {})
+    if quick:
+        for table, values in replacements.items():
+            if not isinstance(values, dict):
+                raise ValueError(f"{path}: [quick.{table}] must be a table")
+            data.setdefault(table, {}).update(values)
+    study = {"name": path.stem, "source": str(path), "quick": bool(quick), **study}
+    return study, data
+
+
+def _toml(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    return repr(value)
+
+
+def _write_config(study: dict, tables: dict, folder: Path) -> Path:
+    """The study as a sweep config in ``folder`` (its store beside it)."""
+    tables = {**tables, "sweep": {**tables.get("sweep", {}), "out": f"{study['name']}.h5"}}
+    meta = {k: v for k, v in study.items() if k not in ("source",)}
+    lines = [f"# {study.get('title', study['name'])}",
+             f"# written by vesicle study from {study['source']}"
+             + (" (--quick)" if study["quick"] else ""), ""]  # fmt: skip
+    for name, table in [("study", meta), *tables.items()]:
+        lines.append(f"[{name}]")
+        lines.extend(f"{k} = {_toml(v)}" for k, v in table.items())
+        lines.append("")
+    path = folder / f"{study['name']}.toml"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def run_study(
+    name_or_path: str | Path,
+    outdir: str | Path,
+    quick: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[dict], None] | None = None,
+) -> dict:
+    """Run a study into ``outdir`` (resumable) and draw it; returns ``{"config", "store",
+    "figure", "table", "status"}``."""
+    study, tables = load_study(name_or_path, quick)
+    folder = Path(outdir)
+    folder.mkdir(parents=True, exist_ok=True)
+    config = read_sweep_config(_write_config(study, tables, folder))
+    store = run_sweep(config, workers=workers, scheduler=scheduler, progress=progress)
+    figure, table = plot_study(store, study, folder)
+    return {"config": str(config.path), "store": str(config.out), "figure": str(figure),
+            "table": str(table), "status": store.status(config)}  # fmt: skip
+
+
+def _get(point: dict, key: str):
+    value = point
+    for part in key.split("."):
+        value = value.get(part) if isinstance(value, dict) else None
+    return np.nan if value is None else float(value)
+
+
+def _x(point: dict, study: dict) -> float:
+    return excess_area(point["v"]) if study["x"] == "Delta" else float(point[study["x"]])
+
+
+def study_rows(store: SweepStore, study: dict) -> list[dict]:
+    """One row per branch point of every finished curve: the curve's key, its fixed
+    parameters, x, every y and whether the point is stable."""
+    rows = []
+    for record in store.records.values():
+        result = record.get("result") or {}
+        for p in result.get("points", []):
+            row = {"curve": f"{study['curves']} = {p[study['curves']]:g}",
+                   **{k: p[k] for k in ("v", "lam", "chi")}, study["x"]: _x(p, study),
+                   **{y: _get(p, y) for y in study["y"]},
+                   "stable": p["n_unstable"] == 0}  # fmt: skip
+            rows.append(row)
+    return sorted(rows, key=lambda r: (r["curve"], r[study["x"]]))
+
+
+def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path, Path]:
+    """``NAME.png`` (a panel per y: each curve, stable points filled, unstable open, the
+    theory dotted) and ``NAME.csv`` (:func:`study_rows`) of a study's store."""
+    from .plots import _figure, _save
+
+    folder = Path(folder)
+    rows = study_rows(store, study)
+    table = folder / f"{study['name']}.csv"
+    with table.open("w", newline="") as f:
+        if rows:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0]))
+            writer.writeheader()
+            writer.writerows(rows)
+    ys = study["y"]
+    fig = _figure((6.4, 2.4 * len(ys) + 1.0))
+    axes = np.atleast_1d(fig.subplots(len(ys), 1, sharex=True))
+    curves = sorted({r["curve"] for r in rows}, key=lambda c: float(c.split("=")[1]))
+    theory = THEORIES.get(study.get("theory") or "")
+    for k, name in enumerate(curves):
+        pts = [r for r in rows if r["curve"] == name]
+        x = np.array([r[study["x"]] for r in pts])
+        stable = np.array([r["stable"] for r in pts])
+        for ax, y in zip(axes, ys, strict=True):
+            v = np.array([r[y] for r in pts])
+            ax.plot(x, v, color=f"C{k}", lw=1.2, label=name if y == ys[0] else None)
+            ax.scatter(x[stable], v[stable], color=f"C{k}", s=14, zorder=3)
+            ax.scatter(x[~stable], v[~stable], facecolor="white", edgecolor=f"C{k}", s=14,
+                       zorder=3)  # fmt: skip
+        if theory is not None and len(pts) > 1:
+            _theory_curve(axes, ys, theory, pts, study, f"C{k}")
+    for ax, y in zip(axes, ys, strict=True):
+        ax.set_ylabel(y)
+        ax.grid(alpha=0.3, which="both")
+        ax.set_xscale(study.get("xscale", "linear"))
+    axes[-1].set_xlabel({"Delta": r"excess area $\Delta$", "lam": r"$\lambda$",
+                         "chi": r"$\chi$", "v": "v"}.get(study["x"], study["x"]))  # fmt: skip
+    if theory is not None:
+        axes[0].plot([], [], color="0.3", ls=":", label=f"leading order ({study['theory']})")
+    axes[0].legend(fontsize="x-small")
+    d = store_discretisation(store)
+    label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
+             + (", quick" if study.get("quick") else ""))  # fmt: skip
+    axes[0].set_title(f"{study.get('title', study['name'])}\n({label}; open: unstable TT)",
+                      fontsize="small")  # fmt: skip
+    figure = _save(fig, folder / f"{study['name']}.png", 120)
+    log.info("wrote %s and %s", figure, table)
+    return figure, table
+
+
+def store_discretisation(store: SweepStore) -> dict:
+    for record in store.records.values():
+        d = (record.get("result") or {}).get("discretisation")
+        if d:
+            return d
+    return {}
+
+
+def _theory_curve(axes, ys, theory, pts, study, color) -> None:
+    p0 = pts[0]
+    xs = np.array([r[study["x"]] for r in pts])
+    grid = (np.geomspace(xs.min(), xs.max(), 60) if study.get("xscale") == "log"
+            else np.linspace(xs.min(), xs.max(), 60))  # fmt: skip
+    vals = []
+    for x in grid:
+        point = {"v": p0["v"], "lam": p0["lam"], "chi": p0["chi"]}
+        if study["x"] == "Delta":  # invert Delta = 4 pi (v^(-2/3) - 1)
+            point["v"] = (x / (4.0 * np.pi) + 1.0) ** -1.5
+        else:
+            point[study["x"]] = x
+        vals.append(theory(point["v"], point["lam"], point["chi"]))
+    for ax, y in zip(axes, ys, strict=True):
+        if y in vals[0]:
+            ax.plot(grid, [v[y] for v in vals], color=color, ls=":", lw=1.0)
