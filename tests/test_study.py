@@ -44,7 +44,7 @@ def test_every_shipped_study_is_a_valid_sweep(tmp_path, quick):
     for name in studies:
         study, tables = load_study(name, quick)
         config = read_sweep_config(_write_config(study, tables, tmp_path))
-        assert config.task == "branch" and config.points
+        assert config.task == ("run" if study["figure"] == "runs" else "branch") and config.points
         assert config.discretisation.degree == (4 if quick else 8)
         assert study["cost"]
 
@@ -94,3 +94,33 @@ def test_study_list_and_unknown_name():
     assert r.exit_code == 0 and "tt-shape-chi" in r.output and "cost" in r.output
     r = CliRunner().invoke(main, ["study", "no-such-study"])
     assert r.exit_code != 0 and "the shipped ones are" in r.output
+
+
+def test_runs_figure_and_period_fit_on_a_synthetic_store(tmp_path):
+    """figure = "runs": rows per run with chi T, the regime markers, and the period fit, which
+    recovers an exact T = 3 (lam - 7.5)^(-1/2) (lam_c and the exponent of a saddle-node)."""
+    import json
+
+    from vesicle.study import period_fit, plot_study
+
+    lams = [7.6, 7.8, 8.0, 8.5, 9.0, 10.0]
+    records = {f"p{i}": {"status": "done", "physics": {"v": 0.95, "lam": lam, "chi": 0.2},
+                         "result": {"v": 0.95, "lam": lam, "chi": 0.2, "regime": "TU",
+                                    "period": 3.0 * (lam - 7.5) ** -0.5,
+                                    "mean": {"S_xz": 2.0, "N1": 0.0, "N2": 0.0},
+                                    "discretisation": {"degree": 4, "grid": 16}}}
+               for i, lam in enumerate(lams)}  # fmt: skip
+    store = SweepStore(tmp_path / "p.h5", "f", "", "run", records)
+    fit = period_fit(lams, [r["result"]["period"] for r in records.values()])
+    assert fit["p"] == pytest.approx(0.5, abs=1e-6)
+    assert fit["lambda_c"] == pytest.approx(7.5, abs=1e-6)
+    study = {"name": "p", "figure": "runs", "x": "lam", "y": ["period", "chiT"],
+             "curves": "chi", "fit": "period", "quick": True}  # fmt: skip
+    figure, table = plot_study(store, study, tmp_path)
+    assert figure.read_bytes()[:4] == b"\x89PNG"
+    with open(table) as f:
+        rows = list(csv.DictReader(f))
+    assert float(rows[0]["chiT"]) == pytest.approx(0.2 * 3.0 * 0.1**-0.5)
+    assert json.loads((tmp_path / "p_fit.json").read_text())["chi = 0.2"]["p"] == pytest.approx(
+        0.5, abs=1e-6)  # fmt: skip
+    assert period_fit([8.0, 9.0], [1.0, 2.0]) is None

@@ -312,3 +312,39 @@ def test_a_neutral_point_that_stopped_keeps_its_points_and_counts_as_failed(monk
                       {"chi": [1.0, 3.0]}, {})  # fmt: skip
     assert entry["status"] == "failed" and "before chi = 3: no TT" in entry["error"]
     assert entry["result"]["failed"] == [{"chi": 3.0, "error": "no TT"}]
+
+
+def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
+    """task = "run": each point's run file lies beside the store; a point whose run was cut
+    short (here interrupted at t > 0.05) resumes from the file's checkpoint and ends where an
+    uninterrupted run ends (the restart is exact: SPEC, docs/dynamics.md)."""
+    from vesicle.dynamics import RunParameters
+    from vesicle.parameters import Discretisation, Physics
+    from vesicle.simulation import simulate
+
+    body = ('[sweep]\ntask = "run"\nout = "r.h5"\n[grid]\nlam = [2.0]\n[run]\nt_end = 0.12\n'
+            "save_every = 0.03\nsave_fields = false\n" + SMALL)  # fmt: skip
+    config = read_sweep_config(write(tmp_path, body))
+    (point,) = config.points
+    params = RunParameters(point, config.discretisation, config.settings["solver"],
+                           **config.settings["run"])  # fmt: skip
+    runs = tmp_path / "r_runs"
+    runs.mkdir()
+
+    def stop(info):
+        if info["t"] > 0.05:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        simulate(params, out=runs / f"{point.key}.h5", progress=stop)
+    with caplog.at_level("INFO", logger="vesicle.sweep"):
+        entry = run_point("run", point.to_dict(), config.discretisation.to_dict(), {},
+                          config.settings)  # fmt: skip
+    assert entry["status"] == "done", entry.get("error")
+    assert "resumes its run from t = 0.0" in caplog.text
+    settings = config.settings
+    whole = simulate(RunParameters(Physics(lam=2.0), Discretisation(12, 4), settings["solver"],
+                                   **settings["run"]))  # fmt: skip
+    assert entry["result"]["t_final"] == pytest.approx(0.12)
+    assert entry["result"]["final"]["psi"] == pytest.approx(float(whole.series["psi"][-1]),
+                                                            abs=1e-12)  # fmt: skip

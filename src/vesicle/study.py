@@ -8,13 +8,16 @@ keys for ``--quick`` (reduced resolution)::
 
     [study]
     title = "Figure 4: ..."
-    figure = "branches"      # the only kind so far: y against the branch parameter
+    figure = "branches"      # y along branches (task branch), or "runs": y of each run (task run:
+                             #   "mean.S_xz", "period", "chiT" = chi * period), marked by regime
     x = "chi"                # the branch parameter, or "Delta" (excess area) for v-branches
     xscale = "log"           # or "linear" (default)
     y = ["psi", "D"]         # point keys; "bending.S_xz" / "flow.S_xz" for the split
     curves = "lam"           # the grid key that names each curve
     theory = "misbah_psi"    # optional: a leading-order curve beside each (THEORIES)
     cost = "..."             # measured cost, shown by --list
+    overlay = "NAME"         # optional: a study of runs in the same folder drawn on this one
+    fit = "period"           # optional (runs): T = c (lam - lam_c)^(-p) fitted per curve
 
 :func:`run_study` writes the sweep config into the output folder (``DIR/NAME.toml``), runs it
 on the sweep engine (resumable: a second call computes only what is missing) and draws
@@ -25,6 +28,7 @@ parameters, x, every y, stability).
 from __future__ import annotations
 
 import csv
+import json
 import logging
 import tomllib
 from collections.abc import Callable
@@ -46,8 +50,12 @@ THEORIES: dict[str, Callable[[float, float, float], dict]] = {
     "danker_misbah_tt": lambda v, lam, chi: danker_misbah_tt_rheology(v, lam),
 }
 
-_STUDY_KEYS = {"title", "figure", "x", "xscale", "y", "curves", "theory", "cost", "notes"}
-_FIGURES = ("branches",)
+_STUDY_KEYS = {"title", "figure", "x", "xscale", "y", "curves", "theory", "cost", "notes",
+               "overlay", "fit"}  # fmt: skip
+_FIGURES = ("branches", "runs")
+
+#: Marker of each regime in the figures of runs.
+_REGIME_MARKERS = {"TT": "o", "TR": "^", "TU": "s"}
 
 
 def _shipped() -> dict[str, Path]:
@@ -152,10 +160,29 @@ def _x(point: dict, study: dict) -> float:
     return excess_area(point["v"]) if study["x"] == "Delta" else float(point[study["x"]])
 
 
+def _run_value(result: dict, key: str) -> float:
+    if key == "chiT":
+        period = result.get("period")
+        return np.nan if period is None else float(result["chi"]) * float(period)
+    return _get(result, key)
+
+
 def study_rows(store: SweepStore, study: dict) -> list[dict]:
-    """One row per branch point of every finished curve: the curve's key, its fixed
-    parameters, x, every y and whether the point is stable."""
+    """One row per branch point of every finished curve (figure "branches": the curve's key,
+    its fixed parameters, x, every y and whether the point is stable), or per finished run
+    (figure "runs": the same with the regime instead of the stability)."""
     rows = []
+    if study.get("figure") == "runs":
+        for record in store.records.values():
+            r = record.get("result") or {}
+            if record.get("status") != "done" or not r:
+                continue
+            rows.append({"curve": f"{study['curves']} = {r[study['curves']]:g}",
+                         **{k: r[k] for k in ("v", "lam", "chi")}, study["x"]: _x(r, study),
+                         **{y: _run_value(r, y) for y in study["y"]},
+                         "regime": r.get("regime"), "periods_seen": r.get("regime_detail"),
+                         "t_final": r.get("t_final")})  # fmt: skip
+        return sorted(rows, key=lambda r: (r["curve"], r[study["x"]]))
     for record in store.records.values():
         result = record.get("result") or {}
         for p in result.get("points", []):
@@ -183,9 +210,46 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     ys = study["y"]
     fig = _figure((6.4, 2.4 * len(ys) + 1.0))
     axes = np.atleast_1d(fig.subplots(len(ys), 1, sharex=True))
-    curves = sorted({r["curve"] for r in rows}, key=lambda c: float(c.split("=")[1]))
+    if study.get("figure") == "runs":
+        fits = _draw_runs(axes, ys, rows, study)
+    else:
+        fits = {}
+        _draw_branches(axes, ys, rows, study)
+        overlay = study.get("overlay")
+        if overlay and (folder / f"{overlay}.h5").exists():  # runs beyond lambda_c
+            other, _ = load_study(overlay, study.get("quick", False))
+            runs = study_rows(SweepStore.read(folder / f"{overlay}.h5"), other)
+            mapped = [{**r, **{y: r.get(f"mean.{y}", np.nan) for y in ys}} for r in runs]
+            _draw_runs(axes, ys, mapped, {**other, "fit": None}, legend_curves=False)
+    for ax, y in zip(axes, ys, strict=True):
+        ax.set_ylabel(y)
+        ax.grid(alpha=0.3, which="both")
+        ax.set_xscale(study.get("xscale", "linear"))
+    axes[-1].set_xlabel({"Delta": r"excess area $\Delta$", "lam": r"$\lambda$",
+                         "chi": r"$\chi$", "v": "v"}.get(study["x"], study["x"]))  # fmt: skip
+    if study.get("theory"):
+        axes[0].plot([], [], color="0.3", ls=":", label=f"leading order ({study['theory']})")
+    axes[0].legend(fontsize="x-small")
+    if fits:
+        (folder / f"{study['name']}_fit.json").write_text(json.dumps(fits, indent=1))
+    d = store_discretisation(store)
+    label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
+             + (", quick" if study.get("quick") else ""))  # fmt: skip
+    note = "open: unstable TT" if study.get("figure") != "runs" else "o TT, ^ TR, s TU"
+    axes[0].set_title(f"{study.get('title', study['name'])}\n({label}; {note})",
+                      fontsize="small")  # fmt: skip
+    figure = _save(fig, folder / f"{study['name']}.png", 120)
+    log.info("wrote %s and %s", figure, table)
+    return figure, table
+
+
+def _curves(rows: list[dict]) -> list[str]:
+    return sorted({r["curve"] for r in rows}, key=lambda c: float(c.split("=")[1]))
+
+
+def _draw_branches(axes, ys, rows, study) -> None:
     theory = THEORIES.get(study.get("theory") or "")
-    for k, name in enumerate(curves):
+    for k, name in enumerate(_curves(rows)):
         pts = [r for r in rows if r["curve"] == name]
         x = np.array([r[study["x"]] for r in pts])
         stable = np.array([r["stable"] for r in pts])
@@ -197,23 +261,58 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
                        zorder=3)  # fmt: skip
         if theory is not None and len(pts) > 1:
             _theory_curve(axes, ys, theory, pts, study, f"C{k}")
-    for ax, y in zip(axes, ys, strict=True):
-        ax.set_ylabel(y)
-        ax.grid(alpha=0.3, which="both")
-        ax.set_xscale(study.get("xscale", "linear"))
-    axes[-1].set_xlabel({"Delta": r"excess area $\Delta$", "lam": r"$\lambda$",
-                         "chi": r"$\chi$", "v": "v"}.get(study["x"], study["x"]))  # fmt: skip
-    if theory is not None:
-        axes[0].plot([], [], color="0.3", ls=":", label=f"leading order ({study['theory']})")
-    axes[0].legend(fontsize="x-small")
-    d = store_discretisation(store)
-    label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
-             + (", quick" if study.get("quick") else ""))  # fmt: skip
-    axes[0].set_title(f"{study.get('title', study['name'])}\n({label}; open: unstable TT)",
-                      fontsize="small")  # fmt: skip
-    figure = _save(fig, folder / f"{study['name']}.png", 120)
-    log.info("wrote %s and %s", figure, table)
-    return figure, table
+
+
+def _draw_runs(axes, ys, rows, study, legend_curves: bool = True) -> dict:
+    """Each run's y, marked by its regime; with ``fit = "period"`` the fit of each curve's
+    periods ``T = c (lam - lam_c)^(-p)`` (returned by curve)."""
+    fits = {}
+    for k, name in enumerate(_curves(rows)):
+        pts = [r for r in rows if r["curve"] == name]
+        for ax, y in zip(axes, ys, strict=True):
+            for regime, marker in _REGIME_MARKERS.items():
+                sel = [r for r in pts if r["regime"] == regime]
+                ax.scatter([r[study["x"]] for r in sel], [r[y] for r in sel], marker=marker,
+                           color=f"C{k}", s=26, edgecolor="k", lw=0.4, zorder=4)  # fmt: skip
+            if legend_curves and y == ys[0]:
+                ax.plot([], [], color=f"C{k}", marker="o", ls="", label=f"runs: {name}")
+        if study.get("fit") == "period":
+            fit = period_fit([r[study["x"]] for r in pts], [r.get("period") for r in pts])
+            if fit is not None:
+                fits[name] = fit
+                for ax, y in zip(axes, ys, strict=True):
+                    if y in ("period", "chiT"):
+                        scale = float(pts[0]["chi"]) if y == "chiT" else 1.0
+                        xs = np.linspace(fit["lambda_c"] + 1e-3, max(r[study["x"]] for r in pts),
+                                         80)  # fmt: skip
+                        label = f"fit p = {fit['p']:.3f}, lam_c = {fit['lambda_c']:.4g}"
+                        ax.plot(xs, scale * fit["c"] * (xs - fit["lambda_c"]) ** -fit["p"],
+                                color=f"C{k}", ls="--", lw=0.9, label=label)  # fmt: skip
+    return fits
+
+
+def period_fit(lam, periods) -> dict | None:
+    """``T = c (lam - lam_c)^(-p)`` by least squares in ``log T`` (three or more periods;
+    ``None`` otherwise): near a saddle-node (SPEC §14) ``p = 1/2``."""
+    from scipy.optimize import least_squares
+
+    pts = [(float(x), float(t)) for x, t in zip(lam, periods, strict=True)
+           if t is not None and np.isfinite(t) and t > 0]  # fmt: skip
+    if len(pts) < 3:
+        return None
+    x, t = np.array(pts).T
+
+    def residual(q):
+        c, lc, p = q
+        d = np.maximum(x - lc, 1e-12)
+        return np.log(c) - p * np.log(d) - np.log(t)
+
+    lo = x.min() - 1e-6
+    q0 = [t.min() * (x.max() - x.min()) ** 0.5, x.min() - 0.5 * (x.max() - x.min()), 0.5]
+    r = least_squares(residual, q0, bounds=([1e-12, -np.inf, 0.0], [np.inf, lo, 5.0]))
+    c, lc, p = r.x
+    return {"c": float(c), "lambda_c": float(lc), "p": float(p), "points": len(pts),
+            "rms_log_residual": float(np.sqrt(np.mean(r.fun**2)))}  # fmt: skip
 
 
 def store_discretisation(store: SweepStore) -> dict:

@@ -63,10 +63,10 @@ from .branch import PARAMETERS, branch, parse_values, reach
 from .config import SECTIONS, ConfigError, solver_from
 from .critical import critical_lambda, critical_summary
 from .dynamics import RunParameters
-from .io import open_file, stamp, write_atomically
+from .io import open_file, read_run, stamp, write_atomically
 from .neutral import neutral_curve
 from .parameters import Discretisation, Physics
-from .simulation import simulate
+from .simulation import load_parameters, simulate
 from .stability import stability
 from .steady_io import steady_summary
 
@@ -140,7 +140,26 @@ def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: di
 
 def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     params = RunParameters(physics, disc, settings.get("solver"), **settings.get("run", {}))
-    run = simulate(params)
+    path, resume = None, None
+    if settings.get("runs_dir"):  # each point's run file, checkpointed: a point cut short by a
+        # crash, Ctrl-C or a lost worker resumes from its last checkpoint when tried again
+        path = Path(settings["runs_dir"]) / f"{physics.key}.h5"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.exists():
+            try:
+                previous = read_run(path)
+            except (OSError, ValueError, KeyError) as err:
+                log.warning("run file %s unreadable (%s): the point starts again", path, err)
+                path.unlink()
+            else:
+                same = load_parameters(previous).replace(t_end=params.t_end) == params
+                if previous.checkpoint is not None and same:
+                    resume = previous
+                    log.info("point %s resumes its run from t = %.4g", physics.key,
+                             float(previous.checkpoint["t"]))  # fmt: skip
+                else:
+                    path.unlink()
+    run = simulate(params, out=path, resume=resume)
     return {"vesicle_version": __version__, "physics": physics.to_dict(),
             "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
             "chi": physics.chi, **summarize(run)}  # fmt: skip
@@ -193,7 +212,7 @@ class SweepConfig:
         """What every point of one store must share (task, discretisation, options, settings,
         fixed physics)."""
         settings = {k: (v.to_dict() if hasattr(v, "to_dict") else v)
-                    for k, v in self.settings.items()}  # fmt: skip
+                    for k, v in self.settings.items() if k != "runs_dir"}  # fmt: skip
         fixed = self.points[0].to_dict() if self.points else {}
         for key in TASKS[self.task].swept:
             fixed.pop(key, None)
@@ -292,6 +311,10 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
         if task == "run":
             settings = {"solver": solver_from(data.get("solver", {})), "run": data.get("run", {})}
             RunParameters(points[0], disc, settings["solver"], **settings["run"])
+            out_path = Path(sweep["out"])
+            out_path = out_path if out_path.is_absolute() else path.parent / out_path
+            # the run files of the points, beside the store (vesicle plot / analyze read them)
+            settings["runs_dir"] = str(out_path.parent / f"{out_path.stem}_runs")
         if "modes" in options and options["modes"] not in ("symmetric", "general"):
             raise ValueError(f"[task] modes must be 'symmetric' or 'general', got "
                              f"{options['modes']!r}")  # fmt: skip
