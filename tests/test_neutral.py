@@ -22,14 +22,12 @@ def curve():
 
 def test_traced_point_agrees_with_the_bracketing_search(curve):
     """At chi = 3 the tracer continued the critical point from chi = 1; critical_lambda
-    brackets afresh (the reference): the two agree to their tolerances (1e-3 each).  The
-    reference starts near the root (lam0 = 8.4, 1 % steps, as docs/steady.md uses it): from its
-    default start its secant jumps (lam 5.85 -> 8.78 in one Newton solve) land on a second,
-    stable steady state (psi = +0.021 where the branch continued in small steps has
-    psi = -0.011 and is unstable), and it brackets nothing (measured)."""
+    brackets afresh from its default start (the reference): the two agree to their tolerances
+    (1e-3 each).  Before its far secant steps went by a branch, one Newton jump (lam 5.85 ->
+    8.78) landed on a second, stable steady state (psi = +0.021 where the branch has
+    psi = -0.011 and is unstable), and at chi = 3.162 it returned lam_c = 6.627 (measured)."""
     traced = next(p for p in curve.points if p.chi == 3.0)
-    reference = critical_lambda(vs.Physics(v=0.95, chi=3.0), DISC, lam0=8.4, step=0.01,
-                                xtol=1e-3)  # fmt: skip
+    reference = critical_lambda(vs.Physics(v=0.95, chi=3.0), DISC, xtol=1e-3)
     assert traced.lambda_c == pytest.approx(reference.lambda_c, abs=3e-3)
     assert traced.bifurcation == reference.bifurcation == "hopf"
     assert traced.omega_R == pytest.approx(reference.omega_R, rel=0.02)

@@ -18,11 +18,15 @@ import numpy as np
 from scipy.optimize import brentq
 
 from . import __version__
-from .branch import reach
+from .branch import branch, reach
 from .parameters import Discretisation, Physics
 from .stability import stability
 from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .theory import misbah_critical_lambda
+
+#: Largest relative change of lam reached by one Newton solve from the nearest solution; farther
+#: steps go by a branch (continuation with step halving and a jump guard).
+JUMP_RATIO = 0.05
 
 __all__ = ["CriticalResult", "critical_lambda", "critical_summary"]
 
@@ -126,8 +130,18 @@ def critical_lambda(
         try:
             if solutions:
                 nearest = min(solutions, key=lambda x: abs(np.log(x / lam)))
-                steady = steady_tank_treading(physics.replace(lam=lam), discretisation,
-                                              initial=solutions[nearest], **newton)  # fmt: skip
+                if abs(np.log(lam / nearest)) <= JUMP_RATIO:
+                    steady = steady_tank_treading(physics.replace(lam=lam), discretisation,
+                                                  initial=solutions[nearest], **newton)  # fmt: skip
+                else:  # a far secant step: by a branch with step halving and its jump guard,
+                    # so that it cannot land on another steady state (measured: chi = 3.162,
+                    # N = 4, one Newton jump found lam_c = 6.627 on another branch, not 8.590)
+                    leg = branch(solutions[nearest].physics, discretisation, "lam", [lam],
+                                 start=solutions[nearest], locate=False, arclength=False,
+                                 executor=executor, jacobian=jacobian)  # fmt: skip
+                    if leg.stopped:
+                        raise NewtonError(leg.stopped)
+                    steady = leg.points[-1].steady
             else:  # the first: as vesicle tt starts (continuation where Newton cannot)
                 steady = reach(physics.replace(lam=lam), discretisation, verify_unstable=True,
                                **newton)  # fmt: skip
