@@ -145,6 +145,9 @@ def test_approach_exponent_recovers_known_power_laws():
     assert fit["exponent"] == pytest.approx(0.5, abs=1e-12)
     assert fit["coefficient"] == pytest.approx(0.8, rel=1e-12) and fit["points"] == 12
     assert approach_exponent(lam, 2.0 * (7.5 - lam), 7.5)["exponent"] == pytest.approx(1.0)
+    free = approach_exponent(lam, -0.8 * np.sqrt(7.5 - lam))  # the fold fitted too
+    assert free["exponent"] == pytest.approx(0.5, abs=1e-8)
+    assert free["critical"] == pytest.approx(7.5, abs=1e-8)
     with pytest.raises(ValueError, match="two points"):
         approach_exponent([7.5, 8.0], [0.0, 1.0], 7.5)
 

@@ -196,16 +196,41 @@ def parse_values(text: str, step: float | None = None) -> list[float]:
     return values
 
 
-def approach_exponent(values, growth, critical: float) -> dict:
-    """Fit ``|growth| = a |critical - value|^p`` by least squares in log-log.
+def approach_exponent(values, growth, critical: float | None = None) -> dict:
+    """Fit ``|growth| = a |critical - value|^p`` (least squares in log-log).
 
     For the real eigenvalue of a branch approaching a saddle-node (fold) at ``critical``,
-    ``p = 1/2`` (SPEC §16; the paper's Fig. 8).  Points at or past ``critical`` and zero growth
-    rates are left out.  Returns ``{"exponent", "coefficient", "points", "range"}``, the range
-    being that of ``|critical - value|`` fitted.
+    ``p = 1/2`` (SPEC §16; the paper's Fig. 8).  With ``critical`` given, points at it and zero
+    growth rates are left out and the fit is linear in log-log; with ``critical=None`` it is
+    fitted too (three parameters, the values approaching it from below; at least three points),
+    an estimate of the fold independent of its location on the branch.  Returns
+    ``{"exponent", "coefficient", "critical", "points", "range"}``, the range being that of
+    ``|critical - value|`` fitted.
     """
-    x = np.abs(float(critical) - np.asarray(values, dtype=float))
+    values = np.asarray(values, dtype=float)
     y = np.abs(np.asarray(growth, dtype=float))
+    if critical is None:
+        from scipy.optimize import least_squares
+
+        keep = (y > 0) & np.isfinite(values) & np.isfinite(y)
+        x, y = values[keep], y[keep]
+        if x.size < 3:
+            raise ValueError("approach_exponent needs at least three points with a nonzero "
+                             "growth rate to fit the critical value too")  # fmt: skip
+        span = x.max() - x.min()
+
+        def residual(q):
+            a, xc, p = q
+            return np.log(a) + p * np.log(np.maximum(xc - x, 1e-14)) - np.log(y)
+
+        q0 = [y.max() / np.sqrt(span), x.max() + 0.1 * span, 0.5]
+        r = least_squares(residual, q0, bounds=([1e-14, x.max() + 1e-12, 0.0],
+                                                [np.inf, np.inf, 5.0]))  # fmt: skip
+        a, xc, p = r.x
+        d = xc - x
+        return {"exponent": float(p), "coefficient": float(a), "critical": float(xc),
+                "points": int(x.size), "range": [float(d.min()), float(d.max())]}  # fmt: skip
+    x = np.abs(float(critical) - values)
     keep = (x > 0) & (y > 0) & np.isfinite(x) & np.isfinite(y)
     if keep.sum() < 2:
         raise ValueError("approach_exponent needs at least two points short of the critical "
@@ -215,6 +240,7 @@ def approach_exponent(values, growth, critical: float) -> dict:
     return {
         "exponent": float(slope),
         "coefficient": float(np.exp(intercept)),
+        "critical": float(critical),
         "points": int(keep.sum()),
         "range": [float(fitted.min()), float(fitted.max())],
     }

@@ -50,8 +50,13 @@ def fold_approach(data: dict) -> dict | None:
            and p["omega_I"] < 0 and 0 < abs(critical - p[name]) <= 0.1 * abs(critical)]  # fmt: skip
     if len(pts) < 2:
         return None
-    fit = approach_exponent([p[name] for p in pts], [p["omega_I"] for p in pts], critical)
-    return {**fit, "critical": critical, "type": fold["type"], "parameter": name}
+    values, growth = [p[name] for p in pts], [p["omega_I"] for p in pts]
+    fit = approach_exponent(values, growth, critical)
+    out = {**fit, "type": fold["type"], "parameter": name}
+    if len(pts) >= 3:  # the fold fitted too: independent of its location on the branch
+        free = approach_exponent(values, growth)
+        out["free"] = {k: free[k] for k in ("exponent", "coefficient", "critical")}
+    return out
 
 
 def plot_branch(data: dict, outdir: str | Path, dpi: int = 120) -> list[Path]:
@@ -113,6 +118,10 @@ def plot_branch(data: dict, outdir: str | Path, dpi: int = 120) -> list[Path]:
         grid = np.geomspace(*approach["range"], 20)
         ax.loglog(grid, approach["coefficient"] * grid ** approach["exponent"], color="C0",
                   label=f"fit: exponent {approach['exponent']:.3f}")  # fmt: skip
+        if "free" in approach:
+            f = approach["free"]
+            ax.plot([], [], ls="", label=f"fold fitted too: exponent {f['exponent']:.3f} at "
+                    f"{f['critical']:.6g}")  # fmt: skip
         x0 = approach["range"][1]
         y0 = approach["coefficient"] * x0 ** approach["exponent"]
         ax.loglog(grid, y0 * np.sqrt(grid / x0), color="k", ls=":", label="exponent 1/2")
