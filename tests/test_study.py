@@ -44,7 +44,8 @@ def test_every_shipped_study_is_a_valid_sweep(tmp_path, quick):
     for name in studies:
         study, tables = load_study(name, quick)
         config = read_sweep_config(_write_config(study, tables, tmp_path))
-        assert config.task == ("run" if study["figure"] == "runs" else "branch") and config.points
+        kinds = {"runs": "run", "maps": "ellipsoid_map", "branches": "branch"}
+        assert config.task == kinds[study["figure"]] and config.points
         assert config.discretisation.degree == (4 if quick else 8)
         assert study["cost"]
 
@@ -74,7 +75,7 @@ def test_a_small_study_runs_resumes_and_draws(tmp_path):
 
 
 @pytest.mark.parametrize("edit, message", [
-    (("figure = \"branches\"", "figure = \"maps\""), "figure must be one of"),
+    (("figure = \"branches\"", "figure = \"contours\""), "figure must be one of"),
     (("theory = \"misbah_psi\"", "theory = \"lebedev\""), "theory must be one of"),
     (("curves = \"chi\"", "curve = \"chi\""), "unknown key(s) curve"),
     (("y = [\"psi\", \"D\", \"bending.S_xz\"]", "y = []"), "y must be a list"),
@@ -124,3 +125,45 @@ def test_runs_figure_and_period_fit_on_a_synthetic_store(tmp_path):
     assert json.loads((tmp_path / "p_fit.json").read_text())["chi = 0.2"]["p"] == pytest.approx(
         0.5, abs=1e-6)  # fmt: skip
     assert period_fit([8.0, 9.0], [1.0, 2.0]) is None
+
+
+def test_an_ellipsoid_map_study_runs_and_draws(tmp_path):
+    """figure = "maps" on task ellipsoid_map: the TT state's equivalent ellipsoid turned over psi,
+    solved for every lam; the map at the state's own psi and lam is the ellipsoid S^V there
+    (flow_stress of the same ellipsoid: an independent call), and S_xz(psi) is even about 0."""
+    import numpy as np
+
+    from vesicle.ellipsoid import equivalent_ellipsoid, flow_stress
+
+    path = tmp_path / "maps.toml"
+    path.write_text("""[study]
+title = "maps"
+figure = "maps"
+x = "lam"
+y = ["S_xz", "N1"]
+curves = "chi"
+[sweep]
+task = "ellipsoid_map"
+[grid]
+v = [0.95]
+lam = [2.0]
+chi = [1.0]
+[task]
+psi = [-0.3, 0.0, 0.3]
+lams = [1.0, 2.0]
+[discretisation]
+degree = 4
+grid = 12
+""")
+    result = run_study(path, tmp_path / "out", workers=1)
+    assert result["status"]["done"] == 1
+    (record,) = SweepStore.read(result["store"]).records.values()
+    m = record["result"]
+    assert np.allclose(np.asarray(m["S_xz"])[0], np.asarray(m["S_xz"])[2], rtol=1e-6)
+    state = m["state"]
+    shape = equivalent_ellipsoid(state["axes"], state["axis_directions"], 12,
+                                 turn=0.0 - state["psi"])  # fmt: skip
+    direct = flow_stress(shape, [2.0])[0]
+    assert m["S_xz"][1][1] == pytest.approx(direct.S_xz, rel=1e-8)
+    with open(result["figure"], "rb") as f:
+        assert f.read(4) == b"\x89PNG"

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
+from .analysis import diagnose
 from .continuation import ArclengthPoint, arclength_step, tangent
 from .parameters import Discretisation, Physics
 from .problem import SteadyProblem
@@ -108,6 +109,7 @@ class BranchPoint:
         return {
             "lam": p.lam, "chi": p.chi, "v": p.v,
             "psi": r.psi, "D": r.D, "axes": r.axes.tolist(),
+            "axis_directions": diagnose(r.shape).axes.tolist(),
             **r.stress.summary(),
             "bending": r.split["bending"].summary(), "flow": r.split["flow"].summary(),
             "omega_R": w_r, "omega_I": w_i,

@@ -9,7 +9,8 @@ keys for ``--quick`` (reduced resolution)::
     [study]
     title = "Figure 4: ..."
     figure = "branches"      # y along branches (task branch), or "runs": y of each run (task run:
-                             #   "mean.S_xz", "period", "chiT" = chi * period), marked by regime
+                             #   "mean.S_xz", "period", "chiT" = chi * period), marked by regime,
+                             #   or "maps": contours of the ellipsoid maps (task ellipsoid_map)
     x = "chi"                # the branch parameter, or "Delta" (excess area) for v-branches
     xscale = "log"           # or "linear" (default)
     y = ["psi", "D"]         # point keys; "bending.S_xz" / "flow.S_xz" for the split
@@ -52,7 +53,7 @@ THEORIES: dict[str, Callable[[float, float, float], dict]] = {
 
 _STUDY_KEYS = {"title", "figure", "x", "xscale", "y", "curves", "theory", "cost", "notes",
                "overlay", "fit"}  # fmt: skip
-_FIGURES = ("branches", "runs")
+_FIGURES = ("branches", "runs", "maps")
 
 #: Marker of each regime in the figures of runs.
 _REGIME_MARKERS = {"TT": "o", "TR": "^", "TU": "s"}
@@ -200,6 +201,8 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     from .plots import _figure, _save
 
     folder = Path(folder)
+    if study.get("figure") == "maps":
+        return _plot_maps(store, study, folder)
     rows = study_rows(store, study)
     table = folder / f"{study['name']}.csv"
     with table.open("w", newline="") as f:
@@ -313,6 +316,51 @@ def period_fit(lam, periods) -> dict | None:
     c, lc, p = r.x
     return {"c": float(c), "lambda_c": float(lc), "p": float(p), "points": len(pts),
             "rms_log_residual": float(np.sqrt(np.mean(r.fun**2)))}  # fmt: skip
+
+
+def _plot_maps(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path]:
+    """Contours of each ellipsoid map (a row per reference state, a column per y) in the
+    lam-psi plane, with the TT branch of the ``overlay`` study (psi against lam) on top."""
+    from .plots import _figure, _save
+
+    maps = sorted((r["result"] for r in store.records.values()
+                   if r.get("status") == "done" and r.get("result")),
+                  key=lambda m: (m["chi"], m["lam"]))  # fmt: skip
+    table = folder / f"{study['name']}.csv"
+    with table.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["state_lam", "state_chi", "state_psi", "psi", "lam", *study["y"]])
+        for m in maps:
+            for i, psi in enumerate(m["map_psi"]):
+                for j, lam in enumerate(m["map_lam"]):
+                    writer.writerow([m["lam"], m["chi"], m["state"]["psi"], psi, lam,
+                                     *(m[y][i][j] for y in study["y"])])  # fmt: skip
+    trajectory = None
+    overlay = study.get("overlay")
+    if overlay and (folder / f"{overlay}.h5").exists():
+        other, _ = load_study(overlay, study.get("quick", False))
+        trajectory = study_rows(SweepStore.read(folder / f"{overlay}.h5"), other)
+    ys = study["y"]
+    fig = _figure((3.4 * len(ys), 3.0 * max(len(maps), 1) + 0.6))
+    axes = np.atleast_2d(fig.subplots(max(len(maps), 1), len(ys), squeeze=False))
+    for row, m in zip(axes, maps, strict=False):
+        lam, psi = np.meshgrid(m["map_lam"], m["map_psi"])
+        lengths = ", ".join(f"{x:.3g}" for x in m["state"]["axes"])
+        for ax, y in zip(row, ys, strict=True):
+            c = ax.contourf(lam, psi, np.asarray(m[y]), levels=14, cmap="viridis")
+            ax.contour(lam, psi, np.asarray(m[y]), levels=14, colors="k", linewidths=0.3)
+            fig.colorbar(c, ax=ax, shrink=0.85)
+            if trajectory:
+                pts = [r for r in trajectory if abs(r["chi"] - m["chi"]) < 1e-12]
+                ax.plot([r["lam"] for r in pts], [r["psi"] for r in pts], color="w", lw=1.4)
+            ax.plot([m["lam"]], [m["state"]["psi"]], "r*", ms=9)
+            ax.set_title(f"{y}: axes {lengths}\n(state lam = {m['lam']:g}, chi = {m['chi']:g})",
+                         fontsize="x-small")  # fmt: skip
+            ax.set_xlabel(r"$\lambda$")
+            ax.set_ylabel(r"$\psi$")
+    fig.suptitle(study.get("title", study["name"]), fontsize="small")
+    figure = _save(fig, folder / f"{study['name']}.png", 120)
+    return figure, table
 
 
 def store_discretisation(store: SweepStore) -> dict:

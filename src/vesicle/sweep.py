@@ -58,11 +58,12 @@ import h5py
 import numpy as np
 
 from . import __version__
-from .analysis import summarize
+from .analysis import diagnose, summarize
 from .branch import PARAMETERS, branch, parse_values, reach
 from .config import SECTIONS, ConfigError, solver_from
 from .critical import critical_lambda, critical_summary
 from .dynamics import RunParameters
+from .ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 from .io import open_file, read_run, stamp, write_atomically
 from .neutral import neutral_curve
 from .parameters import Discretisation, Physics
@@ -119,8 +120,13 @@ def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dic
     keys = ("jacobian", "xtol", "past_fold")
     b = branch(start, disc, name, values, **{k: options[k] for k in keys if k in options})
     fixed = {k: x for k, x in physics.to_dict().items() if k != name}
+    result = b.to_dict()
+    if options.get("ellipsoid"):  # S^V of each point's equivalent ellipsoid (SPEC §11)
+        for p in result["points"]:
+            shape = equivalent_ellipsoid(p["axes"], p["axis_directions"], disc.grid)
+            p["ellipsoid"] = flow_stress(shape, [p["lam"]])[0].summary()
     return {"vesicle_version": __version__, "physics": fixed, "discretisation": disc.to_dict(),
-            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **b.to_dict()}  # fmt: skip
+            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result}  # fmt: skip
 
 
 def _neutral_chi(options: dict) -> list[float]:
@@ -136,6 +142,28 @@ def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: di
     c = neutral_curve(physics, _neutral_chi(options), disc,
                       **{k: options[k] for k in keys if k in options})  # fmt: skip
     return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
+
+
+def _values(spec, points: int) -> list[float]:
+    if isinstance(spec, list):
+        return [float(x) for x in spec]
+    lo, hi = (float(x) for x in str(spec).split(":"))
+    return [float(x) for x in np.linspace(lo, hi, points)]
+
+
+def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    """S^V of the TT state's equivalent ellipsoid turned over ``psi`` for every ``lams``."""
+    state = reach(physics, disc, **{k: options[k] for k in ("jacobian",) if k in options})
+    d = diagnose(state.shape)
+    psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)))
+    lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)))
+    m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid)
+    return {"vesicle_version": __version__, "physics": physics.to_dict(),
+            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
+            "chi": physics.chi, "state": {"psi": state.psi, "axes": d.lengths.tolist(),
+                                          "axis_directions": d.axes.tolist()},
+            "map_psi": m["psi"].tolist(), "map_lam": m["lam"].tolist(),
+            **{k: np.asarray(m[k]).tolist() for k in ("S_xz", "N1", "N2")}}  # fmt: skip
 
 
 def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
@@ -179,10 +207,13 @@ TASKS = {
     "tt": Task(_tt, GRID_KEYS, ("jacobian", "max_iterations")),
     "stability": Task(_stability, GRID_KEYS, ("jacobian", "max_iterations", "modes")),
     "critical": Task(_critical, ("v", "chi"), ("jacobian", "max_iterations", "xtol", "lam0")),
-    "branch": Task(_branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold")),
+    "branch": Task(
+        _branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold", "ellipsoid")
+    ),
     "neutral": Task(
         _neutral, ("v",), ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change")
     ),
+    "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
     "run": Task(_run, GRID_KEYS, ()),
 }
 
@@ -190,7 +221,8 @@ _TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
                "xtol": (int, float), "lam0": (int, float), "parameter": (str,),
                "values": (str, list), "past_fold": (int,), "chi": (str, list),
                "points": (int,), "type_tol": (int, float),
-               "locate_type_change": (bool,)}  # fmt: skip
+               "locate_type_change": (bool,), "ellipsoid": (bool,), "psi": (str, list),
+               "lams": (str, list)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
@@ -346,6 +378,16 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
         for p in points:
             for x in values:
                 p.replace(**{name: x})
+    if task == "ellipsoid_map":
+        for key in ("psi", "lams"):
+            if key in options:
+                try:
+                    values = _values(options[key], int(options.get("points", 15)))
+                except ValueError:
+                    raise ValueError(f"[task] {key} must be a range \"LOW:HIGH\" or a list, got "
+                                     f"{options[key]!r}") from None  # fmt: skip
+                if key == "lams" and any(not (x > 0) for x in values):
+                    raise ValueError(f"[task] lams must be positive, got {options[key]!r}")
     if task == "neutral":
         if "points" in options and not (isinstance(options.get("chi"), str) and
                                         options["points"] >= 2):  # fmt: skip
