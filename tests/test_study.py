@@ -72,6 +72,9 @@ def test_a_small_study_runs_resumes_and_draws(tmp_path):
     assert after.records[next(iter(after.records))]["finished"] == before
     study, _ = load_study(path)
     assert len(study_rows(after, study)) == 3
+    r = CliRunner().invoke(main, ["plot", str(again["store"]), "--out", str(tmp_path / "fig")])
+    assert r.exit_code == 0, r.output  # `vesicle plot` of a study's store: its own figure
+    assert (tmp_path / "fig" / "small.png").read_bytes()[:4] == b"\x89PNG"
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -41,7 +41,16 @@ import numpy as np
 from .sweep import SweepStore, read_sweep_config, run_sweep
 from .theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
 
-__all__ = ["THEORIES", "list_studies", "load_study", "plot_study", "run_study", "study_rows"]
+__all__ = [
+    "THEORIES",
+    "list_studies",
+    "load_study",
+    "period_fit",
+    "plot_study",
+    "run_study",
+    "study_of_store",
+    "study_rows",
+]
 
 log = logging.getLogger(__name__)
 
@@ -201,6 +210,7 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     from .plots import _figure, _save
 
     folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
     if study.get("figure") == "maps":
         return _plot_maps(store, study, folder)
     rows = study_rows(store, study)
@@ -361,6 +371,15 @@ def _plot_maps(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path
     fig.suptitle(study.get("title", study["name"]), fontsize="small")
     figure = _save(fig, folder / f"{study['name']}.png", 120)
     return figure, table
+
+
+def study_of_store(store: SweepStore) -> dict | None:
+    """The ``[study]`` table of the config a store was made with (``None``: not a study)."""
+    try:
+        study = tomllib.loads(store.config_text).get("study")
+    except tomllib.TOMLDecodeError:
+        return None
+    return study if isinstance(study, dict) and "name" in study else None
 
 
 def store_discretisation(store: SweepStore) -> dict:

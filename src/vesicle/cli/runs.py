@@ -26,6 +26,7 @@ from ..solver import SolverError
 from ..steady import NewtonError, steady_tank_treading
 from ..steady_io import is_steady_file, read_steady
 from ..steady_plots import plot_steady
+from ..study import plot_study, study_of_store
 from ..surface import ShapeError
 from ..sweep import SweepStore, is_sweep_store
 from ..vtk import export_vtk
@@ -528,6 +529,17 @@ def _plot_sweep(file, folder, others, runs_store) -> None:
     except (OSError, ValueError, KeyError) as err:
         fail(f"cannot read {file}: {err}")
     results = [(key, r["result"]) for key, r in store.records.items() if r.get("result")]
+    study = study_of_store(store)
+    if study is not None:  # a study's store (vesicle study): its own figure and table
+        if others or runs_store:
+            fail("--with and --runs go with neutral curves, not a study's store")
+        try:
+            paths = plot_study(store, study, folder)
+        except OSError as err:
+            fail(f"cannot write the figures: {err}")
+        for p in paths:
+            click.echo(str(p))
+        return
     if store.task == "neutral":
         _plot_curves([r for _, r in results if r.get("points")], folder, others, runs_store)
     elif store.task == "run":
