@@ -35,6 +35,7 @@ from .surface import Shape, ShapeError, spheroid_axes
 from .theory import misbah_tt_inclination
 
 __all__ = [
+    "ORIENTATIONS",
     "FullBasis",
     "NewtonError",
     "RealBasis",
@@ -50,6 +51,10 @@ log = logging.getLogger(__name__)
 #: Newton gives up once the residual exceeds this multiple of the first one (it diverges; a
 #: start closer by continuation is needed, which is cheaper than iterating on).
 DIVERGED = 1e3
+
+#: The steady TT branches: the long axis in the shear plane ("flow", the in-plane branch) or
+#: along the vorticity axis y ("vorticity", the out-of-plane branch of the paper's Fig. 22).
+ORIENTATIONS = ("flow", "vorticity")
 
 #: Jacobian update strategies of the Newton iteration (see :func:`steady_tank_treading`).
 UPDATES = ("broyden", "none")
@@ -119,6 +124,17 @@ class SteadyResult:
         return len(self.residual_history) - 1
 
     @property
+    def long_axis(self) -> np.ndarray:
+        """Unit vector of the longest principal axis (sign: x, else z, component >= 0)."""
+        return diagnose(self.shape).axes[0]
+
+    @property
+    def orientation(self) -> str:
+        """The branch the state lies on: "vorticity" if its long axis is along y, else "flow"
+        (in the y -> -y symmetric basis it is either exactly along y or in the x-z plane)."""
+        return "vorticity" if abs(self.long_axis[1]) > 0.5 else "flow"
+
+    @property
     def residual(self) -> float:
         return self.residual_history[-1]
 
@@ -138,19 +154,28 @@ def _initial_angle(physics: Physics) -> float:
 
 
 def initial_guess(
-    physics: Physics, discretisation: Discretisation, psi: float | None = None
+    physics: Physics,
+    discretisation: Discretisation,
+    psi: float | None = None,
+    orientation: str = "flow",
 ) -> np.ndarray:
     """The spheroid of ``v`` tilted to ``psi`` (default :func:`_initial_angle`) in the x-z plane,
-    as symmetric coefficients."""
+    or with its long axis along the vorticity axis y (``orientation="vorticity"``), as
+    symmetric coefficients."""
+    if orientation not in ORIENTATIONS:
+        raise ValueError(f"orientation must be one of {ORIENTATIONS}, got {orientation!r}")
     psi = _initial_angle(physics) if psi is None else psi
     a_ax, b_ax = spheroid_axes(physics.v)
+    rotation = rotation_matrix("y", -psi)
+    if orientation == "vorticity":  # body x (the long axis) -> lab y
+        rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     shape = Shape.ellipsoid(
         a_ax,
         b_ax,
         b_ax,
         grid=discretisation.grid,
         degree=discretisation.degree,
-        rotation=rotation_matrix("y", -psi),
+        rotation=rotation,
     ).scaled_to_area()
     return SymmetricBasis(discretisation.degree).from_coefficients(shape.coefficients)
 
@@ -209,6 +234,7 @@ def steady_tank_treading(
     updates: str = "broyden",
     guess: np.ndarray | None = None,
     jacobian: str = "linearised",
+    orientation: str | None = None,
 ) -> SteadyResult:
     """Newton–Raphson for the steady tank-treading shape (SPEC §8).
 
@@ -256,8 +282,20 @@ def steady_tank_treading(
     progress : callable, optional
         Called after every Newton iteration with ``{"lam", "chi", "iteration", "residual",
         "seconds"}``.
+    orientation : {"flow", "vorticity"}, optional
+        The branch sought: the in-plane one (the start is the spheroid tilted in the shear
+        plane) or the one with the long axis along the vorticity axis (the start is the
+        spheroid along y).  Default: that of ``initial`` if it is a :class:`SteadyResult`
+        (continuation stays on its branch), else "flow".  A converged state on the other branch
+        (Newton slid onto it) is refused with :class:`NewtonError`.
     """
     physics, discretisation = _objects(physics, discretisation, chi, degree, grid, v, lam)
+    if orientation is None:
+        orientation = initial.orientation if isinstance(initial, SteadyResult) else "flow"
+    if orientation not in ORIENTATIONS:
+        raise ValueError(f"orientation must be one of {ORIENTATIONS}, got {orientation!r}")
+    if initial is None and orientation != "flow":
+        initial = initial_guess(physics, discretisation, orientation=orientation)
     _check_problem(physics)
     if max_iterations is None:
         max_iterations = 30 if updates == "broyden" else 12
@@ -283,6 +321,14 @@ def steady_tank_treading(
             f"representation): residual history "
             f"{', '.join(f'{r:.1e}' for r in newton.history)}; start closer (continuation in "
             "small steps), from a short time-dependent run, or allow more iterations",
+            result,
+        )
+    if result.orientation != orientation:
+        axis = ", ".join(f"{x:+.3f}" for x in result.long_axis)
+        raise NewtonError(
+            f"Newton converged on the {result.orientation!r} branch (long axis ({axis})) at "
+            f"lam = {physics.lam:g}, chi = {physics.chi:g}, not the {orientation!r} one asked "
+            "for: start closer to it (continuation from a state on it)",
             result,
         )
     return result

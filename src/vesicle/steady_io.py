@@ -91,6 +91,7 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
         "degree": d.degree, "grid": d.grid,
         "physics": p.to_dict(), "discretisation": d.to_dict(),
         "psi": result.psi, "D": result.D, "axes": np.asarray(result.axes).tolist(),
+        "orientation": result.orientation, "long_axis": result.long_axis.tolist(),
         **result.stress.summary(),
         "bending": result.split["bending"].summary(),
         "flow": result.split["flow"].summary(),

@@ -20,7 +20,7 @@ from ..parameters import Physics
 from ..problem import JACOBIANS
 from ..solver import SolverError
 from ..stability import stability
-from ..steady import UPDATES, NewtonError
+from ..steady import ORIENTATIONS, UPDATES, NewtonError
 from ..steady_io import steady_summary, write_steady
 from .base import command_line, fail, main, with_version
 from .options import (
@@ -107,6 +107,14 @@ _JACOBIAN = click.option(
     show_default=True,
     help="Perturbations analysed: the steady state's symmetry class, or all (the full basis).",
 )
+@click.option(
+    "--orientation",
+    type=click.Choice(list(ORIENTATIONS)),
+    default="flow",
+    show_default=True,
+    help="The TT branch: long axis in the shear plane (flow) or along the vorticity axis y "
+    "(vorticity; start: the spheroid along y). A state on the other branch is refused.",
+)
 @_MAX_ITERATIONS
 @_UPDATES
 @_JACOBIAN
@@ -124,8 +132,8 @@ _JACOBIAN = click.option(
 @config_option
 @click.pass_context
 def tt(
-    ctx, with_stability, modes, max_iterations, updates, jacobian, workers, scheduler, out,
-    overwrite, as_json, config_path, **options,
+    ctx, with_stability, modes, orientation, max_iterations, updates, jacobian, workers,
+    scheduler, out, overwrite, as_json, config_path, **options,
 ) -> None:  # fmt: skip
     """Steady tank-treading shape by Newton (and its linear stability)."""
     if out is not None:
@@ -144,6 +152,7 @@ def tt(
                 max_iterations=max_iterations,
                 updates=updates,
                 jacobian=jacobian,
+                orientation=orientation,
             )
             s = stability(r, modes=modes, executor=pool) if with_stability else None
         if out is not None:

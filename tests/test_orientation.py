@@ -1,0 +1,49 @@
+"""The out-of-plane (vorticity-aligned) TT branch (issue 15, part 1)."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import vesicle as vs
+from vesicle.cli import main
+from vesicle.steady import NewtonError
+
+DISC = vs.Discretisation(grid=12, degree=4)
+POINT = vs.Physics(v=0.95, lam=11.0, chi=4.0)
+
+
+@pytest.fixture(scope="module")
+def vorticity():
+    return vs.steady_tank_treading(POINT, DISC, orientation="vorticity")
+
+
+def test_the_vorticity_branch_has_its_long_axis_along_y(vorticity):
+    """Newton from the spheroid along y converges to a state whose longest axis is y (exactly,
+    by the y -> -y symmetry of the basis); the in-plane start at the same point gives the
+    in-plane branch, a different state."""
+    assert vorticity.orientation == "vorticity"
+    assert abs(vorticity.long_axis[1]) == pytest.approx(1.0, abs=1e-12)
+    flow = vs.steady_tank_treading(POINT, DISC)
+    assert flow.orientation == "flow" and abs(flow.long_axis[1]) < 1e-12
+    assert not np.allclose(flow.axes, vorticity.axes, atol=1e-2)
+
+
+def test_a_state_on_the_other_branch_is_refused(vorticity):
+    """Continuation keeps the branch of its start; asking for the other one from it is refused
+    (Newton 'slid onto the other branch'), not reported."""
+    again = vs.steady_tank_treading(POINT.replace(lam=11.5), DISC, initial=vorticity)
+    assert again.orientation == "vorticity"
+    with pytest.raises(NewtonError, match="'vorticity' branch"):
+        vs.steady_tank_treading(POINT, DISC, initial=vorticity, orientation="flow")
+    with pytest.raises(ValueError, match="orientation"):
+        vs.steady_tank_treading(POINT, DISC, orientation="y")
+
+
+def test_tt_orientation_json_has_the_long_axis():
+    args = ["--lam", "11", "--chi", "4", "--grid", "12", "--degree", "4", "--json"]
+    r = CliRunner().invoke(main, ["tt", *args, "--orientation", "vorticity"])
+    assert r.exit_code == 0, r.output
+    out = json.loads(r.output.strip().splitlines()[-1])
+    assert out["orientation"] == "vorticity" and abs(out["long_axis"][1]) == pytest.approx(1.0)
