@@ -47,3 +47,18 @@ def test_tt_orientation_json_has_the_long_axis():
     assert r.exit_code == 0, r.output
     out = json.loads(r.output.strip().splitlines()[-1])
     assert out["orientation"] == "vorticity" and abs(out["long_axis"][1]) == pytest.approx(1.0)
+
+
+def test_a_branch_of_the_vorticity_state_with_general_modes(vorticity):
+    """The branch stays on the vorticity branch and analyses general modes: the pair that breaks
+    the x-z symmetry is the most unstable (at N = 4 on 16x32, lam = 11, chi = 4: (1.2572,
+    +0.0081) in general modes while every symmetric mode decays, (2.1866, -0.0606); measured),
+    so the symmetric analysis alone would call the state stable."""
+    b = vs.branch(POINT, DISC, "lam", [11.0, 12.0], start=vorticity, modes="general")
+    assert all(p.steady.orientation == "vorticity" for p in b.points)
+    general = b.points[-1].omega
+    symmetric = vs.stability(b.points[-1].steady).omega
+    assert general.shape[0] > 0 and symmetric[0, 1] < 0
+    assert general[0, 1] > symmetric[0, 1]  # a symmetry-breaking mode leads
+    r = CliRunner().invoke(main, ["neutral", "--orientation", "vorticity", "--chi", "1,2"])
+    assert r.exit_code != 0 and "in-plane branch" in r.output

@@ -248,8 +248,8 @@ def approach_exponent(values, growth, critical: float | None = None) -> dict:
     }
 
 
-def _analyse(steady: SteadyResult, requested: bool) -> BranchPoint:
-    s: StabilityResult = stability(steady)
+def _analyse(steady: SteadyResult, requested: bool, modes: str = "symmetric") -> BranchPoint:
+    s: StabilityResult = stability(steady, modes=modes)
     return BranchPoint(steady.physics, steady, s.omega[:LEADING].copy(), requested)
 
 
@@ -258,10 +258,10 @@ class _Tracer:
 
     def __init__(
         self, physics, discretisation, parameter, executor, progress, max_halvings,
-        jacobian="linearised",
+        jacobian="linearised", modes="symmetric",
     ):  # fmt: skip
         self.physics, self.disc, self.parameter = physics, discretisation, parameter
-        self.jacobian = jacobian
+        self.jacobian, self.modes = jacobian, modes
         self.executor, self.progress = executor, progress
         self.max_halvings = max_halvings
         self.points: list[BranchPoint] = []  # every state computed (starts, location steps)
@@ -307,7 +307,7 @@ class _Tracer:
                     f"the corrector at {self.parameter} = {value:.6g} moved {moved:.2e} from the "
                     f"predictor, more than the step itself ({predicted:.2e}): another branch"
                 )
-        point = self.add(_analyse(steady, requested), on_path)
+        point = self.add(_analyse(steady, requested, self.modes), on_path)
         w_r, w_i = point.most_unstable
         log.info(
             "%s = %.6g: psi %.4f, omega (%.4g, %.4g)", self.parameter, value, steady.psi, w_r, w_i
@@ -362,6 +362,8 @@ def branch(
     executor: Executor | None = None,
     progress: Callable[[dict], None] | None = None,
     jacobian: str = "linearised",
+    modes: str = "symmetric",
+    orientation: str = "flow",
 ) -> Branch:
     """Continue the steady TT state of ``physics`` in ``parameter`` through ``values``.
 
@@ -387,6 +389,10 @@ def branch(
         Arclength steps to take beyond the fold, on the unstable side (0: stop at the fold).
     executor, progress
         Jacobian columns' executor; a callable given each point's summary.
+    modes : {"symmetric", "general"}
+        The perturbations of the stability analysis at every point (:func:`stability`).
+    orientation : {"flow", "vorticity"}
+        The TT branch of the first point when no ``start`` is given (``start``'s otherwise).
     jacobian : {"linearised", "differences"}
         How Newton and stability form their Jacobians (:func:`steady_tank_treading`).
     """
@@ -403,17 +409,17 @@ def branch(
         raise ValueError(f"xtol must be positive, got {xtol}")
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
-    tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian)
+    tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian,
+                     modes)  # fmt: skip
     stopped = None
     if start is None:  # the first value by Newton, or by continuation from an easier point
-        start = reach(
-            tracer.at(values[0]), disc, executor=executor, progress=progress, jacobian=jacobian
-        )
+        start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress,
+                      jacobian=jacobian, orientation=orientation)  # fmt: skip
         requested = start.physics == tracer.at(values[0])
-        tracer.add(_analyse(start, requested=requested))
+        tracer.add(_analyse(start, requested=requested, modes=modes))
         remaining = values if not requested else values[1:]
     else:
-        tracer.add(_analyse(start, requested=False))
+        tracer.add(_analyse(start, requested=False, modes=modes))
         remaining = values
     try:  # a stop at the first value too is a stop (a fold right after the start)
         for value in remaining:
@@ -637,7 +643,8 @@ class _Arclength:
         a, mu = data
         steady = steady_result_at(self.problem(float(z[-1])), a, mu, self.tracer.executor)
         self.last = steady
-        return _blocks(steady), self.G_p(steady), _analyse(steady, requested=False)
+        return (_blocks(steady), self.G_p(steady),
+                _analyse(steady, requested=False, modes=self.tracer.modes))  # fmt: skip
 
 
 def _follow_fold(tracer: _Tracer, xtol: float, past_fold: int) -> SpecialPoint | None:

@@ -103,6 +103,8 @@ def critical_lambda(
     v: float | None = None,
     chi: float | None = None,
     jacobian: str = "linearised",
+    modes: str = "symmetric",
+    orientation: str = "flow",
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
 
@@ -116,6 +118,10 @@ def critical_lambda(
     Newton (at most ``max_iterations`` iterations) from the nearest solution found so far, with
     chord iterations on its Jacobian (:func:`steady_tank_treading`), so a nearby evaluation
     costs little more than the stability Jacobian itself.
+
+    ``modes`` are the perturbations whose growth is bracketed (``"general"`` for the
+    out-of-plane branch, which loses stability to perturbations that break the x-z symmetry);
+    ``orientation`` the TT branch of the first evaluation (later ones continue from it).
     """
     physics, discretisation = _critical_objects(physics, discretisation, degree, grid, v, chi)
     history: list[tuple[float, float, float]] = []
@@ -138,17 +144,17 @@ def critical_lambda(
                     # N = 4, one Newton jump found lam_c = 6.627 on another branch, not 8.590)
                     leg = branch(solutions[nearest].physics, discretisation, "lam", [lam],
                                  start=solutions[nearest], locate=False, arclength=False,
-                                 executor=executor, jacobian=jacobian)  # fmt: skip
+                                 executor=executor, jacobian=jacobian, modes=modes)  # fmt: skip
                     if leg.stopped:
                         raise NewtonError(leg.stopped)
                     steady = leg.points[-1].steady
             else:  # the first: as vesicle tt starts (continuation where Newton cannot)
                 steady = reach(physics.replace(lam=lam), discretisation, verify_unstable=True,
-                               **newton)  # fmt: skip
+                               orientation=orientation, **newton)  # fmt: skip
         except NewtonError as err:
             raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err
         solutions[lam] = steady
-        w_r, w_i = stability(steady).most_unstable
+        w_r, w_i = stability(steady, modes=modes).most_unstable
         history.append((lam, w_r, w_i))
         log.info("lam = %.5g: omega = (%.4g, %.4g)", lam, w_r, w_i)
         if progress is not None:
@@ -156,7 +162,12 @@ def critical_lambda(
         return w_i
 
     lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(physics.v))
-    lo, hi = _bracket(growth, lam, step, factor)
+    if orientation == "vorticity":  # stable above its lambda_c: bracket the decay rate instead
+        if lam0 is None:  # its lambda_c lies well above the in-plane one (the paper's Fig. 22)
+            lam = 2.0 * lam
+        lo, hi = _bracket(lambda x: -growth(x), lam, step, factor)
+    else:
+        lo, hi = _bracket(growth, lam, step, factor)
     lam_c = brentq(growth, lo, hi, xtol=xtol)
     nearest = min(history, key=lambda h: abs(h[0] - lam_c))
     kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"

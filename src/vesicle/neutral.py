@@ -82,6 +82,8 @@ class NeutralCurve:
     bisection: list[NeutralPoint]
     seconds: float
     failed: list[dict] = field(default_factory=list)  # {"chi", "error"} where a direction stopped
+    orientation: str = "flow"
+    modes: str = "symmetric"
 
     def to_dict(self) -> dict:
         return {
@@ -95,14 +97,17 @@ class NeutralCurve:
             "type_change": self.type_change,
             "bisection": [p.to_dict() for p in self.bisection],
             "failed": list(self.failed),
+            "orientation": self.orientation,
+            "modes": self.modes,
             "seconds": self.seconds,
         }
 
 
 class _Tracer:
-    def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor):
+    def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor,
+                 modes="symmetric"):  # fmt: skip
         self.physics, self.disc, self.xtol, self.margin = physics, disc, xtol, margin
-        self.progress, self.jacobian = progress, jacobian
+        self.progress, self.jacobian, self.modes = progress, jacobian, modes
         self.options = {"jacobian": jacobian, "executor": executor}
 
     def at(self, chi: float, lam: float) -> Physics:
@@ -124,7 +129,7 @@ class _Tracer:
                 log.info("direct move to %s = %.4g failed (%s): by a branch", parameter, value,
                          err)  # fmt: skip
         leg = branch(start.physics, self.disc, parameter, [value], start=start, locate=False,
-                     arclength=False, **self.options)  # fmt: skip
+                     arclength=False, modes=self.modes, **self.options)  # fmt: skip
         if leg.stopped:
             raise NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
         return leg.points[-1].steady
@@ -149,7 +154,7 @@ class _Tracer:
                 except _FAILURES as err:
                     log.info("chi = %.4g: no state reached at lam = %.4g (%s)", chi, lam, err)
                     continue
-                if stability(state).most_unstable[1] < 0:
+                if stability(state, modes=self.modes).most_unstable[1] < 0:
                     return state
                 log.info("chi = %.4g: the state at lam = %.4g is not stable", chi, lam)
             lam *= 1.0 - 2.0 * self.margin
@@ -165,7 +170,7 @@ class _Tracer:
         for _ in range(int(math.log(3.0) / math.log(ratio)) // 2 + 1):  # up to 3x lam
             values = [lam * ratio, lam * ratio**2]
             b = branch(state.physics, self.disc, "lam", values, start=state, xtol=self.xtol,
-                       **self.options)  # fmt: skip
+                       modes=self.modes, **self.options)  # fmt: skip
             crossings = [s for s in b.special_points if s.value > lam]
             if crossings:
                 return crossings[0], b
@@ -225,6 +230,8 @@ def neutral_curve(
     progress: Callable[[dict], None] | None = None,
     jacobian: str = "linearised",
     executor=None,
+    orientation: str = "flow",
+    modes: str | None = None,
 ) -> NeutralCurve:
     """Trace ``lambda_c(chi)`` through the values ``chi`` (see the module docstring).
 
@@ -245,7 +252,20 @@ def neutral_curve(
     jacobian, executor
         As for :func:`vesicle.steady.steady_tank_treading` (the executor runs
         finite-difference Jacobian columns).
+    orientation : {"flow", "vorticity"}
+        The TT branch whose loss of stability is traced (the out-of-plane branch: issue 15).
+    modes : {"symmetric", "general"}, optional
+        The perturbations analysed; default "symmetric" for the in-plane branch and "general"
+        for the vorticity branch (it loses stability to modes that break the x-z symmetry).
     """
+    if modes is None:
+        modes = "general" if orientation == "vorticity" else "symmetric"
+    if orientation != "flow":
+        raise ValueError(
+            "the neutral-curve tracer follows the in-plane branch (stable below lambda_c) only "
+            "so far; for the vorticity branch (stable above its lambda_c) use "
+            "critical_lambda(..., orientation='vorticity') per chi"
+        )
     if not isinstance(physics, Physics):
         physics = Physics(v=float(physics))
     chis = sorted({float(c) for c in chi})
@@ -255,10 +275,13 @@ def neutral_curve(
         physics.replace(chi=c)
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
-    tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor)
+    tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
+                     modes)  # fmt: skip
     first = min(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
-    c = critical_lambda(physics.replace(chi=chis[first]), disc, xtol=xtol, **tracer.options)
-    start = reach(tracer.at(chis[first], c.lambda_c * (1 - margin)), disc, **tracer.options)
+    c = critical_lambda(physics.replace(chi=chis[first]), disc, xtol=xtol, modes=modes,
+                        orientation=orientation, **tracer.options)  # fmt: skip
+    start = reach(tracer.at(chis[first], c.lambda_c * (1 - margin)), disc,
+                  orientation=orientation, **tracer.options)  # fmt: skip
     seed = tracer.point(start, chis[first], c.lambda_c)
     traced, between, failed = {chis[first]: seed}, [], []
     for order in (chis[first + 1 :], chis[:first][::-1]):  # up, then down from the seed
@@ -285,7 +308,7 @@ def neutral_curve(
         change, bisection = _type_change(tracer, sorted(points + between, key=lambda p: p.chi),
                                          type_tol)  # fmt: skip
     return NeutralCurve(physics, disc, points, change, between + bisection,
-                        time.perf_counter() - t0, failed)  # fmt: skip
+                        time.perf_counter() - t0, failed, orientation, modes)  # fmt: skip
 
 
 def _type_change(tracer: _Tracer, points: list[NeutralPoint], tol: float):

@@ -85,6 +85,21 @@ _STATES = click.option(
     help="Also write each point's steady state (shape, multipliers, Jacobian, all eigenvalues "
     "and modes) as a steady-state file in this folder (vesicle plot / run --init read them).",
 )
+_ORIENTATION = click.option(
+    "--orientation",
+    type=click.Choice(list(ORIENTATIONS)),
+    default="flow",
+    show_default=True,
+    help="The TT branch: long axis in the shear plane (flow) or along the vorticity axis y "
+    "(vorticity; start: the spheroid along y). A state on the other branch is refused.",
+)
+_STABILITY_MODES = click.option(
+    "--modes",
+    type=click.Choice(["symmetric", "general"]),
+    default=None,
+    help="Perturbations of the stability analysis [default: symmetric; general with "
+    "--orientation vorticity, whose instability breaks the x-z symmetry].",
+)
 _JACOBIAN = click.option(
     "--jacobian",
     type=click.Choice(JACOBIANS),
@@ -107,14 +122,7 @@ _JACOBIAN = click.option(
     show_default=True,
     help="Perturbations analysed: the steady state's symmetry class, or all (the full basis).",
 )
-@click.option(
-    "--orientation",
-    type=click.Choice(list(ORIENTATIONS)),
-    default="flow",
-    show_default=True,
-    help="The TT branch: long axis in the shear plane (flow) or along the vorticity axis y "
-    "(vorticity; start: the spheroid along y). A state on the other branch is refused.",
-)
+@_ORIENTATION
 @_MAX_ITERATIONS
 @_UPDATES
 @_JACOBIAN
@@ -175,6 +183,8 @@ def tt(
     help="Relative move of lambda from --lam0 to the second evaluation; secant steps follow.",
 )
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
+@_ORIENTATION
+@_STABILITY_MODES
 @_MAX_ITERATIONS
 @_JACOBIAN
 @_WORKERS
@@ -183,8 +193,8 @@ def tt(
 @config_option
 @click.pass_context
 def critical(
-    ctx, lam0, step, xtol, max_iterations, jacobian, workers, scheduler, as_json, config_path,
-    **options,
+    ctx, lam0, step, xtol, orientation, modes, max_iterations, jacobian, workers, scheduler,
+    as_json, config_path, **options,
 ) -> None:  # fmt: skip
     """Critical viscosity ratio where steady tank-treading loses stability."""
     try:
@@ -201,10 +211,13 @@ def critical(
                 progress=_echo_progress,
                 max_iterations=max_iterations,
                 jacobian=jacobian,
+                orientation=orientation,
+                modes=modes or ("general" if orientation == "vorticity" else "symmetric"),
             )
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
-    _print({**critical_summary(c, physics, disc), "jacobian": jacobian}, as_json)
+    _print({**critical_summary(c, physics, disc), "jacobian": jacobian,
+            "orientation": orientation}, as_json)  # fmt: skip
 
 
 def _print(out: dict, as_json: bool) -> None:
@@ -292,6 +305,8 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     show_default=True,
     help="Arclength steps beyond a fold, on the unstable side.",
 )
+@_ORIENTATION
+@_STABILITY_MODES
 @_JACOBIAN
 @_WORKERS
 @_SCHEDULER
@@ -305,7 +320,8 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
-def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, jacobian,
+def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, orientation,
+                   modes, jacobian,
                    workers, scheduler, out, states, as_json, config_path,
                    **options) -> None:  # fmt: skip
     """Continue steady tank-treading in lam, chi or v, with its stability and special points.
@@ -335,9 +351,11 @@ def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, j
         if out is not None:
             _writable(Path(out))
         with _executor(workers, scheduler) as pool:
+            modes = modes or ("general" if orientation == "vorticity" else "symmetric")
             b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
                        arclength=arclength, past_fold=past_fold, jacobian=jacobian,
-                       progress=_echo_progress)  # fmt: skip
+                       progress=_echo_progress, modes=modes,
+                       orientation=orientation)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
     fixed = {k: x for k, x in physics.to_dict().items() if k != name}
@@ -436,6 +454,8 @@ def _chi_values(text: str, points: int | None) -> list[float]:
     help="Relative width in chi to which a change of bifurcation type is located.",
 )
 @click.option("--no-type-change", is_flag=True, help="Do not locate the change of type.")
+@_ORIENTATION
+@_STABILITY_MODES
 @_JACOBIAN
 @_WORKERS
 @_SCHEDULER
@@ -445,7 +465,8 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
-def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, jacobian, workers,
+def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orientation, modes,
+                    jacobian, workers,
                     scheduler, out, states, as_json, config_path, **options) -> None:  # fmt: skip
     """Neutral curve lambda_c(chi) at fixed v: the critical point continued in chi, with the
     bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
@@ -470,7 +491,8 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, jacob
         with _executor(workers, scheduler) as pool:
             curve = neutral_curve(physics, chis, disc, xtol=xtol, type_tol=type_tol,
                                   locate_type_change=not no_type_change, progress=progress,
-                                  jacobian=jacobian, executor=pool)  # fmt: skip
+                                  jacobian=jacobian, executor=pool, orientation=orientation,
+                                  modes=modes)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err) + (f" (the points found are in {out})" if out and found else ""))
     result = {**curve.to_dict(), "command": command_line(ctx)}
