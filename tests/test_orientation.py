@@ -60,5 +60,3 @@ def test_a_branch_of_the_vorticity_state_with_general_modes(vorticity):
     symmetric = vs.stability(b.points[-1].steady).omega
     assert general.shape[0] > 0 and symmetric[0, 1] < 0
     assert general[0, 1] > symmetric[0, 1]  # a symmetry-breaking mode leads
-    r = CliRunner().invoke(main, ["neutral", "--orientation", "vorticity", "--chi", "1,2"])
-    assert r.exit_code != 0 and "in-plane branch" in r.output

@@ -105,9 +105,11 @@ class NeutralCurve:
 
 class _Tracer:
     def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor,
-                 modes="symmetric"):  # fmt: skip
+                 modes="symmetric", side=1):  # fmt: skip
         self.physics, self.disc, self.xtol, self.margin = physics, disc, xtol, margin
         self.progress, self.jacobian, self.modes = progress, jacobian, modes
+        # +1: TT stable below lambda_c (the in-plane branch); -1: stable above it (vorticity)
+        self.side = side
         self.options = {"jacobian": jacobian, "executor": executor}
 
     def at(self, chi: float, lam: float) -> Physics:
@@ -157,46 +159,50 @@ class _Tracer:
                 if stability(state, modes=self.modes).most_unstable[1] < 0:
                     return state
                 log.info("chi = %.4g: the state at lam = %.4g is not stable", chi, lam)
-            lam *= 1.0 - 2.0 * self.margin
-        raise NewtonError(f"no stable tank-treading state found at chi = {chi:g} down to "
-                          f"lam = {lam:g}")  # fmt: skip
+            lam *= 1.0 - 2.0 * self.margin * self.side
+        raise NewtonError(f"no stable tank-treading state found at chi = {chi:g} "
+                          f"{'down' if self.side > 0 else 'up'} to lam = {lam:g}")  # fmt: skip
 
     def crossing(self, state: SteadyResult, lam_pred: float) -> tuple:
         """Follow the branch up in lam from ``state``, in steps of ``margin`` (two at a time,
         so that the secant predictor and the jump guard of the branch work and a fold is met
         by step halving), until its stability changes."""
-        lam = state.lam
-        ratio = 1.0 + self.margin
-        for _ in range(int(math.log(3.0) / math.log(ratio)) // 2 + 1):  # up to 3x lam
+        lam, side = state.lam, self.side
+        ratio = (1.0 + self.margin) ** side  # towards the loss of stability
+        for _ in range(int(math.log(3.0) / math.log(1.0 + self.margin)) // 2 + 1):  # 3x lam
             values = [lam * ratio, lam * ratio**2]
             b = branch(state.physics, self.disc, "lam", values, start=state, xtol=self.xtol,
                        modes=self.modes, **self.options)  # fmt: skip
-            crossings = [s for s in b.special_points if s.value > lam]
+            crossings = [s for s in b.special_points if side * (s.value - lam) > 0]
             if crossings:
                 return crossings[0], b
             if b.stopped:  # a fold the arclength could not locate (a complex pair leads there,
                 # next to the type change): the last point reached, within the step halving
-                last = max(p.physics.lam for p in b.points)
+                last = max((p.physics.lam for p in b.points), key=lambda x: side * x)
                 log.warning("chi = %.4g: the branch folds near lam = %.6g (not located: %s)",
                             state.chi, last, b.stopped)  # fmt: skip
                 return SpecialPoint("fold", "lam", last, 0.0, False, (last, last)), b
             state, lam = b.points[-1].steady, values[-1]
-        raise NewtonError(f"no loss of stability at chi = {state.chi:g} below lam = {lam:g}")
+        raise NewtonError(f"no loss of stability at chi = {state.chi:g} "
+                          f"{'below' if side > 0 else 'above'} lam = {lam:g}")  # fmt: skip
 
     def point(self, start: SteadyResult, chi: float, lam_pred: float) -> NeutralPoint:
         t0 = time.perf_counter()
-        state = self.stable_start(start, chi, lam_pred * (1.0 - self.margin))
+        side = self.side
+        state = self.stable_start(start, chi, lam_pred * (1.0 - side * self.margin))
         special, b = self.crossing(state, lam_pred)
-        below = [p for p in b.points if p.physics.lam <= special.value and p.most_unstable[1] < 0]
-        nearest: BranchPoint = max(below, key=lambda p: p.physics.lam) if below else b.points[0]
+        stable_side = [p for p in b.points if side * (special.value - p.physics.lam) >= 0]
+        below = [p for p in stable_side if p.most_unstable[1] < 0]
+        nearest: BranchPoint = (max(below, key=lambda p: side * p.physics.lam) if below
+                                else b.points[0])  # fmt: skip
         # the next chi starts from a state half a margin or more below lambda_c: at a fold the
         # branch's Jacobian in lam is singular, and a natural step from next to it diverges
         # (N = 4, chi = 0.215: from lam = 7.49025, 1e-4 below the fold, every step down failed)
-        limit = special.value * (1.0 - 0.5 * self.margin)
-        away = [(p.physics.lam, p.steady) for p in below if p.physics.lam <= limit]
-        if state.lam <= limit:  # the stable state this chi started from
+        limit = special.value * (1.0 - 0.5 * self.margin * side)
+        away = [(p.physics.lam, p.steady) for p in below if side * (limit - p.physics.lam) >= 0]
+        if side * (limit - state.lam) >= 0:  # the stable state this chi started from
             away.append((state.lam, state))
-        start_from = max(away, key=lambda c: c[0])[1] if away else nearest.steady
+        start_from = max(away, key=lambda c: side * c[0])[1] if away else nearest.steady
         kind = "hopf" if special.kind == "hopf" else "saddle-node"
         p = NeutralPoint(float(chi), float(special.value), kind, float(special.omega_R),
                          float(nearest.steady.psi), float(nearest.steady.D),
@@ -260,12 +266,6 @@ def neutral_curve(
     """
     if modes is None:
         modes = "general" if orientation == "vorticity" else "symmetric"
-    if orientation != "flow":
-        raise ValueError(
-            "the neutral-curve tracer follows the in-plane branch (stable below lambda_c) only "
-            "so far; for the vorticity branch (stable above its lambda_c) use "
-            "critical_lambda(..., orientation='vorticity') per chi"
-        )
     if not isinstance(physics, Physics):
         physics = Physics(v=float(physics))
     chis = sorted({float(c) for c in chi})
@@ -275,12 +275,13 @@ def neutral_curve(
         physics.replace(chi=c)
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
+    side = -1 if orientation == "vorticity" else 1
     tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
-                     modes)  # fmt: skip
+                     modes, side)  # fmt: skip
     first = min(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
     c = critical_lambda(physics.replace(chi=chis[first]), disc, xtol=xtol, modes=modes,
                         orientation=orientation, **tracer.options)  # fmt: skip
-    start = reach(tracer.at(chis[first], c.lambda_c * (1 - margin)), disc,
+    start = reach(tracer.at(chis[first], c.lambda_c * (1 - side * margin)), disc,
                   orientation=orientation, **tracer.options)  # fmt: skip
     seed = tracer.point(start, chis[first], c.lambda_c)
     traced, between, failed = {chis[first]: seed}, [], []
