@@ -22,7 +22,9 @@ __all__ = [
     "DampedOscillation",
     "Regime",
     "ShapeDiagnostics",
+    "classify_orbit",
     "classify_regime",
+    "continuous_axes",
     "diagnose",
     "fit_damped_oscillation",
     "local_minima",
@@ -216,6 +218,75 @@ def classify_regime(
 
 
 @dataclass(frozen=True)
+class Orbit:
+    """Result of :func:`classify_orbit`: the class of a three-dimensional orbit of the long axis."""
+
+    name: str  # "in-plane", "vorticity-TT", "precession", "figure-8", "undetermined"
+    period: float | None  # of the long axis's motion (one revolution or one loop)
+    detail: str
+
+
+def continuous_axes(axes: np.ndarray) -> np.ndarray:
+    """Principal-axis vectors (t, 3, 3) with signs flipped so that each varies continuously."""
+    out = np.array(axes, dtype=float)
+    for i in range(1, out.shape[0]):
+        dots = np.einsum("kj,kj->k", out[i], out[i - 1])
+        out[i, dots < 0] *= -1.0
+    return out
+
+
+def _crossing_period(t: np.ndarray, x: np.ndarray) -> float | None:
+    """Mean time between upward zero crossings of ``x`` (None with fewer than two)."""
+    up = np.nonzero((x[:-1] < 0) & (x[1:] >= 0))[0]
+    if up.size < 2:
+        return None
+    times = t[up] - x[up] * (t[up + 1] - t[up]) / (x[up + 1] - x[up])
+    return float(np.mean(np.diff(times)))
+
+
+def classify_orbit(t: np.ndarray, axes: np.ndarray, tail: float = 0.5) -> Orbit:
+    """Classify the motion of the long axis ``a(t)`` (the first of ``axes``, (t, 3, 3)) over the
+    last ``tail`` of a run that left the shear plane (SPEC §13; the paper's Fig. 23, 24).
+
+    - ``in-plane``: ``|a_y| < 0.05`` throughout (back in the shear plane: classify psi instead);
+    - ``vorticity-TT``: ``|a_y| > 0.9`` and ``a`` nearly fixed (moves by less than 0.05);
+    - ``precession``: the long axis circles the vorticity axis: its azimuth about y,
+      ``atan2(a_z, a_x)``, turns through at least one full revolution while the angle from y
+      stays within 0.3 rad of its mean; period = time per revolution;
+    - ``figure-8``: the long axis stays on one side (``a_x`` keeps its sign, no revolution about
+      y) while ``a_y`` and ``a_z`` both oscillate through zero, ``a_y`` at half the frequency of
+      ``a_z`` (a figure-8 about x); period = that of ``a_y``;
+    - otherwise ``undetermined`` (run longer).
+    """
+    t = np.asarray(t, float)
+    if t.size < 5:
+        return Orbit("undetermined", None, "fewer than 5 saved steps")
+    a = continuous_axes(axes)[:, 0]
+    last = t >= t[0] + (1.0 - tail) * (t[-1] - t[0])
+    t, a = t[last], a[last]
+    ay = np.abs(a[:, 1])
+    if np.max(ay) < 0.05:
+        return Orbit("in-plane", None, f"|a_y| <= {np.max(ay):.2g} over the tail")
+    if np.min(ay) > 0.9 and np.max(np.ptp(a, axis=0)) < 0.05:
+        return Orbit(
+            "vorticity-TT", None, f"long axis along y, moving by {np.ptp(a, axis=0).max():.2g}"
+        )
+    azimuth = np.unwrap(np.arctan2(a[:, 2], a[:, 0]))
+    turns = abs(azimuth[-1] - azimuth[0]) / (2.0 * np.pi)
+    polar = np.arccos(np.clip(ay, 0.0, 1.0))
+    if turns >= 1.0 and np.ptp(polar) < 0.6:
+        period = float((t[-1] - t[0]) / turns)
+        return Orbit("precession", period, f"{turns:.1f} revolutions about y, angle from y "
+                     f"{np.mean(polar):.2f} +- {0.5 * np.ptp(polar):.2f} rad")  # fmt: skip
+    x_side = np.all(a[:, 0] > 0) or np.all(a[:, 0] < 0)
+    py, pz = _crossing_period(t, a[:, 1]), _crossing_period(t, a[:, 2])
+    if x_side and py is not None and pz is not None and 1.5 < py / pz < 2.5:
+        return Orbit("figure-8", py, f"a_y period {py:.3g}, a_z period {pz:.3g}")
+    return Orbit("undetermined", None, f"{turns:.2f} revolutions about y; a_y, a_z periods "
+                 f"{py}, {pz}: run longer")  # fmt: skip
+
+
+@dataclass(frozen=True)
 class DampedOscillation:
     """``psi(t) = psi_inf + amplitude exp(omega_I t) cos(omega_R t + phase)``, fitted."""
 
@@ -345,10 +416,15 @@ def summarize(run) -> dict:
             }
         except ValueError as err:
             log.info("no damped-oscillation fit: %s", err)
+    orbit = None
+    if regime.name == "out-of-plane":  # the class of the long axis's 3-D orbit (SPEC §13)
+        o = classify_orbit(t, s["axes"])
+        orbit = {"class": o.name, "period": o.period, "detail": o.detail}
     return {
         "regime": regime.name,
         "regime_detail": regime.detail,
         "period": regime.period,
+        "orbit": orbit,
         "t_final": float(t[-1]),
         "saved_steps": run.n_saved,
         "steps": ck.get("steps"),

@@ -14,6 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from .analysis import continuous_axes
 from .io import RunData
 from .sphere.transforms import evaluate
 
@@ -227,17 +228,8 @@ def _plot_section(
     return _save(fig, path, dpi)
 
 
-def _continuous_axes(axes: np.ndarray) -> np.ndarray:
-    """Flip principal-axis vectors so each one varies continuously in time."""
-    out = np.array(axes, dtype=float)
-    for i in range(1, out.shape[0]):
-        dots = np.einsum("kj,kj->k", out[i], out[i - 1])
-        out[i, dots < 0] *= -1.0
-    return out
-
-
 def _plot_axes_sphere(run: RunData, path: Path, dpi: int) -> Path:
-    axes = _continuous_axes(_series(run, "axes"))
+    axes = continuous_axes(_series(run, "axes"))
     fig = _figure((6.0, 6.0))
     ax = fig.add_subplot(projection="3d")
     u, w = np.meshgrid(np.linspace(0, 2 * np.pi, 25), np.linspace(0, np.pi, 13))
