@@ -1,0 +1,52 @@
+"""`vesicle paper` (issue 16): the report's page, its images and data, resume, failures."""
+
+import json
+import re
+
+from click.testing import CliRunner
+
+from vesicle.cli import main
+from vesicle.paper import ITEMS, TABLE1_PAPER, Item, build_report
+
+
+def _boom(folder, quick, options):
+    raise RuntimeError("this item fails on purpose")
+
+
+def test_a_small_report_has_every_image_and_data_file(tmp_path):
+    """Table 1 at N = 2, 4 on 12x24 and the spectrum figures (quick): index.html links only
+    files that exist; a failing item is shown with its error and the others still come; the
+    missing items are listed with their reason; a second call recomputes nothing."""
+    items = [i for i in ITEMS if i.key in ("table1", "fig2", "fig9")]
+    items.append(Item("broken", "Figure 99", "an item that fails", _boom))
+    page = build_report(tmp_path, quick=True, items=items,
+                        options={"grid": 12, "degrees": [2, 4]})  # fmt: skip
+    text = page.read_text()
+    assert "QUICK REPORT" in text and "Table 1" in text and "Figures 2, 3, 10" in text
+    images = re.findall(r'<img src="([^"]+)"', text)
+    links = re.findall(r'<a href="([^"#]+)"', text)
+    assert len(images) >= 3 and links
+    for ref in images + links:
+        assert (tmp_path / ref).is_file(), ref
+    assert "this item fails on purpose" in text
+    assert "Not computed: the damped-oscillation fit exists" in text
+    rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
+    assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
+    record = tmp_path / "table1" / "item.json"
+    assert json.loads(record.read_text())["status"] == "done"
+    before = record.stat().st_mtime_ns
+    build_report(tmp_path, quick=True, items=items, options={"grid": 12, "degrees": [2, 4]})
+    assert record.stat().st_mtime_ns == before
+
+
+def test_table1_reference_values_are_those_of_spec_14():
+    # SPEC §14, Table 1 of the paper (v = 0.95, lam = 8, chi = 10, 32x64)
+    assert TABLE1_PAPER[8] == (2.939, -8.064e-2) and TABLE1_PAPER[2][1] > 0
+    assert sorted(TABLE1_PAPER) == [2, 4, 6, 8, 10, 12, 14]
+
+
+def test_paper_cli_lists_and_refuses_unknown_items(tmp_path):
+    r = CliRunner().invoke(main, ["paper", "--list"])
+    assert r.exit_code == 0 and "table1" in r.output and "missing" in r.output
+    r = CliRunner().invoke(main, ["paper", "--quick", "--only", "fig99", "--out", str(tmp_path)])
+    assert r.exit_code != 0 and "unknown item" in r.output
