@@ -484,7 +484,7 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orien
             if out is not None:
                 partial = {"vesicle_version": __version__, "v": physics.v,
                            "degree": disc.degree, "grid": disc.grid, "partial": True,
-                           "command": command_line(ctx),
+                           "command": command_line(ctx), "type_change": None,
                            "points": sorted(found, key=lambda p: p["chi"])}  # fmt: skip
                 _emit_json(partial, out, False)
 
