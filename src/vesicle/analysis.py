@@ -387,6 +387,11 @@ def summarize(run) -> dict:
     s = run.series
     t = s["t"]
     regime = classify_regime(t, s["psi"], s["axes"])
+    stopped = (run.checkpoint or {}).get("stopped", "")
+    if stopped == "steady" and regime.name in ("undetermined", "TR"):  # it reached steady_tol
+        regime = Regime("TT", regime.period, regime.minima,
+                        "stopped at a steady state (max |dr/dt| below steady_tol); "
+                        f"psi over the tail: {regime.detail}")  # fmt: skip
     if regime.minima.size >= 2:
         window = (t >= regime.minima[0]) & (t <= regime.minima[-1])
     else:
@@ -423,6 +428,7 @@ def summarize(run) -> dict:
     return {
         "regime": regime.name,
         "regime_detail": regime.detail,
+        "stopped": stopped,
         "period": regime.period,
         "orbit": orbit,
         "t_final": float(t[-1]),

@@ -275,6 +275,7 @@ class StepState:
     volume0: float = 0.0
     previous_error: float = 1.0  # the step-size controller's memory
     last_dt: float = 0.0  # the step that reached ``t`` (recorded with the state it reached)
+    stopped: str = ""  # why the run ended: "t_end", "steady" (steady_tol), "periods"; "" running
     corrections: dict = field(
         default_factory=lambda: {"area": 0.0, "volume": 0.0, "recentered": 0, "evaluations": 0}
     )
@@ -293,6 +294,7 @@ class StepState:
             "corrections": self.corrections,
             "previous_error": self.previous_error,
             "last_dt": self.last_dt,
+            "stopped": self.stopped,
         }
         if self.sigma_in is not None:
             ck["sigma_in"] = self.sigma_in
@@ -314,6 +316,7 @@ class StepState:
             corrections=dict(ck["corrections"]),
             previous_error=float(ck.get("previous_error", 1.0)),
             last_dt=float(ck.get("last_dt", 0.0)),
+            stopped=str(ck.get("stopped", "")),
         )
 
 

@@ -212,7 +212,9 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
         if state.t >= state.next_save - eps:
             _record(run, current, state, state.last_dt, params)
             state.next_save = state.t + params.save_every
-        if state.t >= params.t_end - eps or _should_stop(params, run, current):
+        reason = "t_end" if state.t >= params.t_end - eps else _should_stop(params, run, current)
+        if reason:
+            state.stopped = reason
             # the final state is saved even between save times (t_end or an early stop)
             if not (run.n_saved and run.series["t"][-1] >= state.t - eps):
                 _record(run, current, state, state.last_dt, params)
@@ -258,13 +260,14 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
         checkpoint(run, state)
 
 
-def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> bool:
+def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> str:
+    """Why the run stops early ("steady" or "periods"), or "" to go on."""
     if params.steady_tol > 0 and np.max(np.abs(current.rate)) < params.steady_tol:
         log.info("steady state: max |dr/dt| coefficient below %g", params.steady_tol)
-        return True
+        return "steady"
     if params.periods > 0 and run.n_saved >= 5:
         regime = classify_regime(run.series["t"], run.series["psi"], run.series["axes"], tail=1.0)
         if regime.minima.size > params.periods:
             log.info("%d periods of psi completed", params.periods)
-            return True
-    return False
+            return "periods"
+    return ""
