@@ -174,7 +174,9 @@ def simulate(
         run, state = resume, StepState.from_checkpoint(resume.checkpoint)
         integ.previous_error = state.previous_error
         integ.solves = state.solves
-        run.parameters["t_end"] = params.t_end
+        for key in ("t_end", "periods", "steady_tol"):  # the stop criteria may change
+            run.parameters[key] = getattr(params, key)
+        state.stopped = ""
         current = integ.evaluate(state.coefficients, state.sigma_in)
         log.info("resuming at t=%.6f (step %d)", state.t, state.steps)
     else:

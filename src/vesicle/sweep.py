@@ -180,7 +180,10 @@ def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) 
                 log.warning("run file %s unreadable (%s): the point starts again", path, err)
                 path.unlink()
             else:
-                same = load_parameters(previous).replace(t_end=params.t_end) == params
+                # the stop criteria only decide when to stop: a run to an earlier stop is the
+                # beginning of the same trajectory, and continues exactly from its checkpoint
+                stops = {k: getattr(params, k) for k in ("t_end", "periods", "steady_tol")}
+                same = load_parameters(previous).replace(**stops) == params
                 if previous.checkpoint is not None and same:
                     resume = previous
                     log.info("point %s resumes its run from t = %.4g", physics.key,
