@@ -44,7 +44,7 @@ def test_every_shipped_study_is_a_valid_sweep(tmp_path, quick):
     for name in studies:
         study, tables = load_study(name, quick)
         config = read_sweep_config(_write_config(study, tables, tmp_path))
-        kinds = {"runs": "run", "maps": "ellipsoid_map", "branches": "branch"}
+        kinds = {"runs": "run", "maps": "ellipsoid_map", "branches": "branch", "series": "run"}
         assert config.task == kinds[study["figure"]] and config.points
         assert config.discretisation.degree == (4 if quick else 8)
         assert study["cost"]
@@ -168,5 +168,38 @@ grid = 12
                                  turn=0.0 - state["psi"])  # fmt: skip
     direct = flow_stress(shape, [2.0])[0]
     assert m["S_xz"][1][1] == pytest.approx(direct.S_xz, rel=1e-8)
+    with open(result["figure"], "rb") as f:
+        assert f.read(4) == b"\x89PNG"
+
+
+def test_a_series_study_draws_from_the_run_files(tmp_path):
+    """figure = "series": each run's psi(t) and D-psi orbit, read from the run files the sweep
+    keeps beside its store (the file's series has every saved step)."""
+    path = tmp_path / "series.toml"
+    path.write_text("""[study]
+title = "series"
+figure = "series"
+x = "lam"
+y = ["psi"]
+curves = "chi"
+[sweep]
+task = "run"
+[grid]
+lam = [2.0]
+[run]
+t_end = 0.1
+save_every = 0.02
+save_fields = false
+[discretisation]
+degree = 4
+grid = 12
+""")
+    result = run_study(path, tmp_path / "out", workers=1)
+    assert result["status"]["done"] == 1
+    runs = list((tmp_path / "out" / "series_runs").glob("*.h5"))
+    assert len(runs) == 1
+    with open(result["table"]) as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1 and float(rows[0]["t_final"]) == pytest.approx(0.1)
     with open(result["figure"], "rb") as f:
         assert f.read(4) == b"\x89PNG"

@@ -10,7 +10,8 @@ keys for ``--quick`` (reduced resolution)::
     title = "Figure 4: ..."
     figure = "branches"      # y along branches (task branch), or "runs": y of each run (task run:
                              #   "mean.S_xz", "period", "chiT" = chi * period), marked by regime,
-                             #   or "maps": contours of the ellipsoid maps (task ellipsoid_map)
+                             #   or "maps": contours of the ellipsoid maps (task ellipsoid_map),
+                             #   or "series": y(t) of each run's file and the D-psi orbit
     x = "chi"                # the branch parameter, or "Delta" (excess area) for v-branches
     xscale = "log"           # or "linear" (default)
     y = ["psi", "D"]         # point keys; "bending.S_xz" / "flow.S_xz" for the split
@@ -62,7 +63,7 @@ THEORIES: dict[str, Callable[[float, float, float], dict]] = {
 
 _STUDY_KEYS = {"title", "figure", "x", "xscale", "y", "curves", "theory", "cost", "notes",
                "overlay", "fit"}  # fmt: skip
-_FIGURES = ("branches", "runs", "maps")
+_FIGURES = ("branches", "runs", "maps", "series")
 
 #: Marker of each regime in the figures of runs.
 _REGIME_MARKERS = {"TT": "o", "TR": "^", "TU": "s"}
@@ -213,6 +214,8 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     folder.mkdir(parents=True, exist_ok=True)
     if study.get("figure") == "maps":
         return _plot_maps(store, study, folder)
+    if study.get("figure") == "series":
+        return _plot_series(store, study, folder)
     rows = study_rows(store, study)
     table = folder / f"{study['name']}.csv"
     with table.open("w", newline="") as f:
@@ -253,6 +256,52 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
                       fontsize="small")  # fmt: skip
     figure = _save(fig, folder / f"{study['name']}.png", 120)
     log.info("wrote %s and %s", figure, table)
+    return figure, table
+
+
+def _runs_dir(store: SweepStore) -> Path:
+    return store.path.parent / f"{store.path.stem}_runs"
+
+
+def _plot_series(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path]:
+    """Each run's series ``y`` against t (a row per run) and its D-psi orbit, from the run files
+    beside the store; the table lists the runs with their regime and period."""
+    from .io import read_run
+    from .plots import _figure, _save
+
+    runs = []
+    for key, record in sorted(store.records.items()):
+        path = _runs_dir(store) / f"{key}.h5"
+        if record.get("status") == "done" and path.exists():
+            runs.append((record["result"], read_run(path)))
+    runs.sort(key=lambda r: (r[0]["chi"], r[0]["lam"]))
+    table = folder / f"{study['name']}.csv"
+    with table.open("w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["v", "lam", "chi", "regime", "period", "t_final", "stopped"])
+        for r, _ in runs:
+            writer.writerow([r["v"], r["lam"], r["chi"], r.get("regime"), r.get("period"),
+                             r.get("t_final"), r.get("stopped")])  # fmt: skip
+    ys = study["y"]
+    fig = _figure((4.0 * (len(ys) + 1), 2.6 * max(len(runs), 1) + 0.6))
+    axes = np.atleast_2d(fig.subplots(max(len(runs), 1), len(ys) + 1, squeeze=False))
+    for row, (r, run) in zip(axes, runs, strict=False):
+        t = run.series["t"]
+        for ax, y in zip(row, ys, strict=False):
+            ax.plot(t, run.series[y], lw=1.0)
+            ax.set_xlabel("t")
+            ax.set_ylabel(y)
+            ax.grid(alpha=0.3)
+        ax = row[-1]
+        ax.plot(run.series["psi"], run.series["D"], lw=0.8)
+        ax.set_xlabel(r"$\psi$")
+        ax.set_ylabel("D")
+        ax.grid(alpha=0.3)
+        row[0].set_title(f"lam = {r['lam']:g}, chi = {r['chi']:g}: {r.get('regime')}"
+                         + (f", T = {r['period']:.3g}" if r.get("period") else ""),
+                         fontsize="x-small")  # fmt: skip
+    fig.suptitle(study.get("title", study["name"]), fontsize="small")
+    figure = _save(fig, folder / f"{study['name']}.png", 120)
     return figure, table
 
 
