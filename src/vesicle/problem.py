@@ -85,6 +85,14 @@ class SteadyProblem:
     def replace(self, **changes) -> SteadyProblem:
         return dataclasses.replace(self, **changes)
 
+    def release(self) -> None:
+        """Drop the layer potentials and factorised system kept for the last shape (about
+        0.3 GB each at 32x64): a finished steady state keeps its problem, and a neutral curve
+        keeps hundreds of states (at N = 8 on 32x64 the tracer grew to 22 GB and was killed
+        before this was called when Newton returns)."""
+        self.__dict__.pop("_kept_operators", None)
+        self.__dict__.pop("_kept_system", None)
+
     # ----------------------------------------------------------------- basis
     @cached_property
     def basis(self) -> RealBasis:

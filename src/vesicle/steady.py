@@ -511,6 +511,7 @@ class _Newton:
         d = diagnose(shape)
         split_flow = self.P.solve(shape, flow.sigma, split=True)
         self.solves += 3
+        self.P.release()  # the result keeps its problem, not the problem's operators
         return SteadyResult(
             a=a,
             multipliers=(float(mult[0]), float(mult[1])),
