@@ -38,6 +38,7 @@ from .solver import SolverError
 from .stability import stability
 from .steady import NewtonError, SteadyResult, steady_tank_treading
 from .surface import ShapeError
+from .theory import misbah_critical_lambda
 
 __all__ = ["NeutralCurve", "NeutralPoint", "neutral_curve"]
 
@@ -279,11 +280,7 @@ def neutral_curve(
     tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
                      modes, side)  # fmt: skip
     first = min(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
-    c = critical_lambda(physics.replace(chi=chis[first]), disc, xtol=xtol, modes=modes,
-                        orientation=orientation, **tracer.options)  # fmt: skip
-    start = reach(tracer.at(chis[first], c.lambda_c * (1 - side * margin)), disc,
-                  orientation=orientation, **tracer.options)  # fmt: skip
-    seed = tracer.point(start, chis[first], c.lambda_c)
+    seed = _seed(tracer, chis[first], xtol, modes, orientation)
     traced, between, failed = {chis[first]: seed}, [], []
     for order in (chis[first + 1 :], chis[:first][::-1]):  # up, then down from the seed
         path = [seed]
@@ -310,6 +307,44 @@ def neutral_curve(
                                          type_tol)  # fmt: skip
     return NeutralCurve(physics, disc, points, change, between + bisection,
                         time.perf_counter() - t0, failed, orientation, modes)  # fmt: skip
+
+
+def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str) -> NeutralPoint:
+    """The first critical point: bracketed by :func:`critical_lambda` (a Hopf or real crossing),
+    then traced from just below it.  Where the loss of stability is a fold the bracket cannot
+    see (its secant steps land past the fold, where Newton stalls: v = 0.85, chi = 1, N = 4,
+    at lam = 4.05), the branch is followed instead from a stable state at low lam in 10 %
+    steps to its special point, and the point traced from there."""
+    side = tracer.side
+    start = None
+    try:
+        c = critical_lambda(tracer.at(chi, 1.0), tracer.disc, xtol=xtol, modes=modes,
+                            orientation=orientation, **tracer.options)  # fmt: skip
+        lam_c = c.lambda_c
+    except (*_FAILURES, RuntimeError) as err:
+        log.warning("neutral curve seed at chi = %.4g: the bracketing search failed (%s); "
+                    "following the branch instead", chi, err)  # fmt: skip
+        lam = max(1.0, misbah_critical_lambda(tracer.physics.v))
+        lam = 2.0 * lam if side < 0 else 0.5 * lam
+        state = reach(tracer.at(chi, lam), tracer.disc, orientation=orientation,
+                      **tracer.options)  # fmt: skip
+        ratio = 1.1**side
+        values = [lam * ratio**k for k in range(1, 16)]
+        b = branch(state.physics, tracer.disc, "lam", values, start=state, xtol=0.05 * lam,
+                   modes=modes, **tracer.options)  # fmt: skip
+        if not b.special_points and not b.stopped:
+            raise NewtonError(f"no loss of stability at chi = {chi:g} between lam = {lam:g} "
+                              f"and {values[-1]:g}") from err  # fmt: skip
+        lam_c = (b.special_points[0].value if b.special_points else
+                 max((p.physics.lam for p in b.points), key=lambda x: side * x))  # fmt: skip
+        limit = lam_c * (1 - side * tracer.margin)  # a stable state of this branch below it
+        below = [p for p in b.points if side * (limit - p.physics.lam) >= 0
+                 and p.most_unstable[1] < 0]  # fmt: skip
+        start = max(below, key=lambda p: side * p.physics.lam).steady if below else state
+    if start is None:
+        start = reach(tracer.at(chi, lam_c * (1 - side * tracer.margin)), tracer.disc,
+                      orientation=orientation, **tracer.options)  # fmt: skip
+    return tracer.point(start, chi, lam_c)
 
 
 def _type_change(tracer: _Tracer, points: list[NeutralPoint], tol: float):
