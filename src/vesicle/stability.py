@@ -67,7 +67,10 @@ def stability(
     keep = np.argsort(inside)[Z.shape[1] :]
     mu, vec = mu[keep], vec[:, keep]
     omega = np.stack([-mu.imag, mu.real], axis=1)
-    order = np.lexsort((-np.abs(omega[:, 0]), -omega[:, 1]))
+    # most unstable first; a conjugate pair (equal omega_I but for rounding) with -omega_R
+    # first, so that the order does not depend on the last bits of the eigen-solver's output
+    growth, speed = np.round(omega[:, 1], 10), np.round(np.abs(omega[:, 0]), 10)
+    order = np.lexsort((omega[:, 0], -speed, -growth))
     omega, vec = omega[order], vec[:, order]
     shapes = np.stack(
         [basis.to_coefficients(v.real) + 1j * basis.to_coefficients(v.imag) for v in vec.T]
