@@ -329,7 +329,7 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
         state = reach(tracer.at(chi, lam), tracer.disc, orientation=orientation,
                       **tracer.options)  # fmt: skip
         ratio = 1.1**side
-        values = [lam * ratio**k for k in range(1, 16)]
+        values = [lam * ratio**k for k in range(1, 26)]  # up to 10.8 x lam
         b = branch(state.physics, tracer.disc, "lam", values, start=state, xtol=0.05 * lam,
                    modes=modes, **tracer.options)  # fmt: skip
         if not b.special_points and not b.stopped:
