@@ -11,14 +11,13 @@
 
 from __future__ import annotations
 
-import json
 import logging
 from pathlib import Path
 
 import numpy as np
 
 from .branch import REAL_TOLERANCE, approach_exponent
-from .plots import _figure, _save
+from .plots import _figure, _json_file_with, _save
 
 __all__ = ["fold_approach", "is_branch_file", "plot_branch"]
 
@@ -27,11 +26,7 @@ logger = logging.getLogger(__name__)
 
 def is_branch_file(path: str | Path) -> bool:
     """Whether ``path`` is the JSON of a branch."""
-    try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return False
-    return isinstance(data, dict) and {"parameter", "points", "special_points"} <= set(data)
+    return _json_file_with(path, {"parameter", "points", "special_points"})
 
 
 def _fold(data: dict) -> dict | None:

@@ -17,13 +17,12 @@ viscosity ratio, the same for every v in this plane), is drawn dashed.
 
 from __future__ import annotations
 
-import json
 import logging
 from pathlib import Path
 
 import numpy as np
 
-from .plots import _figure, _save
+from .plots import _figure, _json_file_with, _save
 from .theory import lebedev_parameters, misbah_critical_lambda
 
 __all__ = ["REGIME_STYLE", "is_neutral_file", "plot_neutral", "runs_from_store"]
@@ -36,11 +35,7 @@ logger = logging.getLogger(__name__)
 
 def is_neutral_file(path: str | Path) -> bool:
     """Whether ``path`` is the JSON of a neutral curve."""
-    try:
-        data = json.loads(Path(path).read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
-        return False
-    return isinstance(data, dict) and {"points", "type_change", "v"} <= set(data)
+    return _json_file_with(path, {"points", "type_change", "v"})
 
 
 def runs_from_store(path: str | Path) -> list[dict]:

@@ -56,6 +56,17 @@ def _figure(figsize: tuple[float, float] = (6.4, 4.2)) -> Figure:
     return fig
 
 
+def _json_file_with(path: str | Path, keys: set[str]) -> bool:
+    """Whether ``path`` is a JSON object with at least the ``keys`` (what a figure reads)."""
+    import json
+
+    try:
+        data = json.loads(Path(path).read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        return False
+    return isinstance(data, dict) and keys <= set(data)
+
+
 def _save(fig: Figure, path: Path, dpi: int) -> Path:
     fig.savefig(path, dpi=dpi, format="png")
     logger.debug("wrote %s", path)
