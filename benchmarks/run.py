@@ -31,7 +31,10 @@ def main(argv: list[str]) -> None:
         results[module.__name__] = module.run()
     out = HERE / "results"
     out.mkdir(exist_ok=True)
-    (out / "latest.json").write_text(json.dumps(results, indent=2))
+    latest = out / "latest.json"
+    merged = json.loads(latest.read_text()) if latest.exists() else {}
+    merged.update(results)  # a run of some benchmarks keeps the others' last results
+    latest.write_text(json.dumps(merged, indent=2))
     print(f"results written to {out / 'latest.json'}")
 
 
