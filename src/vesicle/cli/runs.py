@@ -454,9 +454,10 @@ def analyze(file, as_json, as_csv) -> None:
 @click.option(
     "--runs",
     "runs_store",
+    multiple=True,
     type=click.Path(exists=True, dir_okay=False),
     help='A sweep store of time-dependent runs (task = "run") whose regimes (TT/TR/TU) are '
-    "overlaid on the phase diagrams.",
+    "overlaid on the phase diagrams (repeatable).",
 )
 def plot(file, outdir, others, runs_store) -> None:
     """PNG figures of a run (psi(t), D(t), S(t), D-psi orbit, shape projections, axes), of a
@@ -507,7 +508,7 @@ def _plot_curves(curves: list[dict], folder, others, runs_store) -> None:
     if bad:
         fail(f"--with takes neutral-curve files; {bad[0]} is not one")
     try:
-        runs = runs_from_store(runs_store) if runs_store else None
+        runs = [r for store in runs_store for r in runs_from_store(store)] or None
     except (OSError, ValueError, KeyError) as err:
         fail(f"--runs: {err}")
     curves = curves + [json.loads(Path(f).read_text()) for f in others]
@@ -545,7 +546,7 @@ def _plot_sweep(file, folder, others, runs_store) -> None:
     elif store.task == "run":
         if runs_store:
             fail("--runs goes with a neutral-curve file; this store is itself a sweep of runs")
-        _plot_curves([], folder, others, file)
+        _plot_curves([], folder, others, (file,))
     elif store.task == "branch":
         if others or runs_store:
             fail("--with and --runs go with neutral curves")
