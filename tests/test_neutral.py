@@ -119,7 +119,7 @@ def _fake_point(self, start, chi, lam_pred):
 
     if chi > 2.0:
         raise NewtonError(f"no stable tank-treading state found at chi = {chi:g}")
-    p = NeutralPoint(chi, 8.0 + 0.1 * chi, "hopf", 0.3 * chi, -0.01, 0.2, True, 0.0, start)
+    p = NeutralPoint(chi, 8.0 + 0.1 * chi, "hopf", 0.3 * chi, -0.01, 0.2, True, 0.0, start=start)
     if self.progress is not None:
         self.progress({k: v for k, v in p.to_dict().items() if k != "located"})
     return p

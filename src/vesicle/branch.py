@@ -152,6 +152,8 @@ class Branch:
     discretisation: Discretisation
     stopped: str | None = None
     seconds: float = 0.0
+    #: where it ended early: (the last value reached, the first value no state was found at)
+    stopped_between: tuple[float, float] | None = None
 
     def to_dict(self, all_points: bool = False) -> dict:
         """JSON-able: the points asked for (all with ``all_points``) and the special points."""
@@ -163,6 +165,7 @@ class Branch:
             "points": [p.to_dict() for p in pts],
             "special_points": [s.to_dict() for s in self.special_points],
             "stopped": self.stopped,
+            "stopped_between": list(self.stopped_between) if self.stopped_between else None,
             "seconds": self.seconds,
         }
 
@@ -411,7 +414,7 @@ def branch(
     t0 = time.perf_counter()
     tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian,
                      modes)  # fmt: skip
-    stopped = None
+    stopped, stopped_between = None, None
     if start is None:  # the first value by Newton, or by continuation from an easier point
         start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress,
                       jacobian=jacobian, orientation=orientation)  # fmt: skip
@@ -425,6 +428,7 @@ def branch(
         for value in remaining:
             tracer.step_to(value)
     except _Stop as stop:
+        stopped_between = (float(stop.last), float(stop.target))
         stopped = (
             f"no steady state found beyond {parameter} = {stop.last:.6g} (towards "
             f"{stop.target:.6g}, after {max_halvings} halvings): {stop.cause}"
@@ -445,7 +449,8 @@ def branch(
             fold = _fold_estimate(tracer)
         if fold is not None:
             specials.append(fold)
-    return Branch(parameter, tracer.path, specials, disc, stopped, time.perf_counter() - t0)
+    return Branch(parameter, tracer.path, specials, disc, stopped, time.perf_counter() - t0,
+                  stopped_between)
 
 
 def _special_points(tracer: _Tracer, locate: bool, xtol: float) -> list:

@@ -62,6 +62,9 @@ class NeutralPoint:
     D: float
     located: bool
     seconds: float
+    #: where lambda_c lies when it is not located to xtol (a fold estimated from the last state
+    #: reached and the first lam where none was found); ``None`` when located
+    bracket: tuple[float, float] | None = None
     #: a stable state on the branch at least half a margin below lambda_c where there is one
     #: (else the nearest below): where the next chi starts, and the state `--states` writes
     start: SteadyResult | None = field(default=None, repr=False, compare=False)
@@ -69,7 +72,8 @@ class NeutralPoint:
     def to_dict(self) -> dict:
         return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
                 "omega_R": self.omega_R, "psi": self.psi, "D": self.D,
-                "located": self.located, "seconds": self.seconds}  # fmt: skip
+                "located": self.located, "seconds": self.seconds,
+                **({"bracket": list(self.bracket)} if self.bracket else {})}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -182,7 +186,8 @@ class _Tracer:
                 last = max((p.physics.lam for p in b.points), key=lambda x: side * x)
                 log.warning("chi = %.4g: the branch folds near lam = %.6g (not located: %s)",
                             state.chi, last, b.stopped)  # fmt: skip
-                return SpecialPoint("fold", "lam", last, 0.0, False, (last, last)), b
+                failed = b.stopped_between[1] if b.stopped_between else last
+                return SpecialPoint("fold", "lam", last, 0.0, False, (last, failed)), b
             state, lam = b.points[-1].steady, values[-1]
         raise NewtonError(f"no loss of stability at chi = {state.chi:g} "
                           f"{'below' if side > 0 else 'above'} lam = {lam:g}")  # fmt: skip
@@ -208,11 +213,12 @@ class _Tracer:
         p = NeutralPoint(float(chi), float(special.value), kind, float(special.omega_R),
                          float(nearest.steady.psi), float(nearest.steady.D),
                          bool(special.located), time.perf_counter() - t0,
+                         None if special.located else tuple(map(float, special.bracket)),
                          start_from)  # fmt: skip
         log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c, kind,
                  p.omega_R)  # fmt: skip
         if self.progress is not None:
-            self.progress({k: v for k, v in p.to_dict().items() if k != "located"})
+            self.progress(p.to_dict())
         return p
 
 

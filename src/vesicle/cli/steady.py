@@ -505,8 +505,10 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orien
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
+        estimate = ("" if p.get("located", True) else
+                    " (estimate: lambda_c in [{:.6g}, {:.6g}])".format(*p["bracket"]))
         click.echo(f"chi={p['chi']:<10.5g} lambda_c={p['lambda_c']:<10.6g} {p['bifurcation']:<12} "
-                   f"omega_R={p['omega_R']:.4g}")  # fmt: skip
+                   f"omega_R={p['omega_R']:.4g}{estimate}")  # fmt: skip
     if result["type_change"]:
         t = result["type_change"]
         click.echo(f"type change at chi = {t['chi']:.4g} (lambda_c = {t['lambda_c']:.5g}): "
