@@ -208,6 +208,18 @@ def simulate(
     return run
 
 
+def _landing_step(dt: float, remaining: float) -> float:
+    """The step towards the next save time (or t_end) ``remaining`` away, given the proposal
+    ``dt``: the remaining interval itself when ``dt`` covers it, its half when ``dt`` covers
+    more than half of it (two even steps instead of a full one and a sliver: a sliver costs as
+    many solves as a full step and, taken from the proposal, upsets the controller)."""
+    if dt >= remaining:
+        return remaining
+    if 2.0 * dt > remaining:
+        return 0.5 * remaining
+    return dt
+
+
 def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
     eps = 1e-12 * max(params.t_end, 1.0)
     while True:
@@ -221,7 +233,8 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
             if not (run.n_saved and run.series["t"][-1] >= state.t - eps):
                 _record(run, current, state, state.last_dt, params)
             break
-        dt = min(state.dt, state.next_save - state.t, params.t_end - state.t)
+        dt = _landing_step(state.dt, min(state.next_save, params.t_end) - state.t)
+        integ.start_up = state.steps == 0 and state.rejected == 0
         result = integ.step(state.coefficients, dt, current)
         if not result.accepted:
             state.rejected += 1
