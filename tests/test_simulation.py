@@ -158,6 +158,27 @@ def test_regime_classification_on_synthetic_series():
     assert classify_regime(t[:3], t[:3]).name == "undetermined"
 
 
+def test_periods_are_accurate_below_the_save_interval():
+    """Saved every 0.1 (about 25 and 31 samples a period, incommensurate), the TR period from parabola-refined minima
+    and the TU period from interpolated passages through -pi/2 are exact to 1e-4 relative (the
+    sample times alone are off by up to half the interval: 2 % of a period here).  The series
+    are exact: a TR oscillation of period 2.47 with a harmonic, and a non-uniform tumbling of
+    half-turn period 3 (psi' = -(pi/3)(1 + 0.3 cos 2 psi'), its exact period from the integral
+    of 1/psi')."""
+    t = np.arange(0.0, 30.0, 0.1)
+    psi = 0.4 * np.cos(2 * np.pi * t / 2.47) + 0.05 * np.cos(4 * np.pi * t / 2.47 + 0.3)
+    tr = classify_regime(t, psi)
+    assert tr.name == "TR" and tr.period == pytest.approx(2.47, rel=1e-4)
+    # tumbling with angular speed (pi/3)(1 + 0.3 cos 2 phi): phi(t) from the exact inverse of
+    # t(phi) = (3/pi) int dphi/(1 + 0.3 cos 2 phi) = (3/pi) atan(sqrt(0.7/1.3) tan phi)/sqrt(0.91)
+    k = np.sqrt(1.3 / 0.7)
+    theta = np.pi * t * np.sqrt(0.91) / 3.0  # phase per half turn runs over pi
+    phi = np.arctan(k * np.tan(theta)) + np.pi * np.round(theta / np.pi)  # continuous
+    angle = np.pi / 2 - (phi + np.pi / 2) % np.pi  # psi decreasing through (-pi/2, pi/2]
+    tu = classify_regime(t, angle)
+    assert tu.name == "TU" and tu.period == pytest.approx(3.0 / np.sqrt(0.91), rel=1e-4)
+
+
 @settings(max_examples=30, deadline=None)
 @given(
     st.sampled_from(["v", "lam", "t_end", "save_every", "rtol", "dt0"]),
