@@ -17,7 +17,7 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     """Table 1 at N = 2, 4 on 12x24 and the spectrum figures (quick): index.html links only
     files that exist; a failing item is shown with its error and the others still come; the
     missing items are listed with their reason; a second call recomputes nothing."""
-    items = [i for i in ITEMS if i.key in ("table1", "fig2", "fig9")]
+    items = [i for i in ITEMS if i.key in ("table1", "fig2", "fig22")]
     items.append(Item("broken", "Figure 99", "an item that fails", _boom))
     page = build_report(tmp_path, quick=True, items=items,
                         options={"grid": 12, "degrees": [2, 4]})  # fmt: skip
@@ -29,7 +29,7 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     for ref in images + links:
         assert (tmp_path / ref).is_file(), ref
     assert "this item fails on purpose" in text
-    assert "Not computed: the damped-oscillation fit exists" in text
+    assert "Not computed: the tracer follows that branch" in text
     rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
     assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
     record = tmp_path / "table1" / "item.json"
