@@ -80,8 +80,14 @@ def _label(curve: dict) -> str:
     return f"v = {curve['v']:g}, N = {curve['degree']} ({curve['grid']}×{2 * curve['grid']})"
 
 
+def _outside_legend(fig, ax) -> None:
+    """The legend right of the axes (it hid points inside them), the axes narrowed to make room."""
+    fig.subplots_adjust(left=0.09, right=0.68)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="x-small", borderaxespad=0)
+
+
 def _chi_lambda(curves, runs, outdir, dpi) -> Path:
-    fig = _figure((6.4, 4.6))
+    fig = _figure((9.0, 4.6))
     ax = fig.add_subplot()
     for k, curve in enumerate(curves):
         color = f"C{k}"
@@ -92,6 +98,9 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
         ax.plot(chi, lam, color=color, lw=1.4, label=_label(curve))
         ax.scatter(chi[hopf], lam[hopf], color=color, s=28, zorder=3)
         ax.scatter(chi[~hopf], lam[~hopf], facecolor="white", edgecolor=color, s=28, zorder=3)
+        estimate = np.array([p.get("located") is False for p in pts])
+        if estimate.any():  # not located to xtol: crossed out
+            ax.scatter(chi[estimate], lam[estimate], marker="x", color="k", s=30, zorder=4)
         change = curve.get("type_change")
         if change:
             ax.scatter([change["chi"]], [change["lambda_c"]], marker="*", s=120, color=color,
@@ -107,13 +116,15 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
     ax.scatter([], [], color="0.3", s=28, label="Hopf (TR above)")
     ax.scatter([], [], facecolor="white", edgecolor="0.3", s=28, label="saddle-node (TU above)")
     ax.plot([], [], color="0.3", ls=":", lw=1.0, label="leading-order theory")
-    ax.legend(loc="best", fontsize="x-small")
+    if any(p.get("located") is False for c in curves for p in c["points"]):
+        ax.scatter([], [], marker="x", color="k", s=30, label="estimate (not located)")
+    _outside_legend(fig, ax)
     ax.set_title("neutral curves: TT stable below", fontsize="medium")
     return _save(fig, outdir / "phase_diagram.png", dpi)
 
 
 def _s_lambda(curves, runs, outdir, dpi) -> Path:
-    fig = _figure((6.4, 4.6))
+    fig = _figure((9.0, 4.6))
     ax = fig.add_subplot()
     for k, curve in enumerate(curves):
         color = f"C{k}"
@@ -131,6 +142,6 @@ def _s_lambda(curves, runs, outdir, dpi) -> Path:
     ax.set_xlabel(r"$S = 7\pi\chi v / (3\sqrt{3}\,\Delta)$")
     ax.set_ylabel(r"$\Lambda = 4\sqrt{\Delta/(30\pi)}\,(1 + 23\lambda/32)$")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="best", fontsize="x-small")
+    _outside_legend(fig, ax)
     ax.set_title("neutral curves in the S–Λ plane (Lebedev et al. 2007)", fontsize="medium")
     return _save(fig, outdir / "phase_SLambda.png", dpi)
