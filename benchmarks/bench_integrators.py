@@ -55,7 +55,8 @@ def _run(grid: int, degree: int, lam: float, perturb: float, integrator: str, rt
 
 def _case(grid: int, degree: int, lam: float, perturb: float) -> dict:
     _ = singular_quadrature(grid).wigner
-    label = f"N={degree} {grid}x{2 * grid} lam={lam:g}" + (f" perturb={perturb:g}" if perturb else "")
+    label = f"N={degree} {grid}x{2 * grid} lam={lam:g}"
+    label += f" perturb={perturb:g}" if perturb else ""
     ref = _run(grid, degree, lam, perturb, "ros34pw2", REFERENCE_RTOL)
     print(f"  {label}: reference psi(1) = {ref['psi']:.9f} ({ref['solves']} solves)", flush=True)
     row: dict = {"reference": ref, "ladders": {}, "met": {}}
@@ -81,7 +82,8 @@ def _case(grid: int, degree: int, lam: float, perturb: float) -> dict:
         row["wall_ratio"] = a["wall_s"] / b["wall_s"]
         row["solve_ratio"] = a["solves"] / b["solves"]
         print(
-            f"  {label}: at |psi - ref| <= {TARGET:g}: ros2 rtol {a['rtol']:.0e} {a['wall_s']:.1f} s,"
+            f"  {label}: at |psi - ref| <= {TARGET:g}: "
+            f"ros2 rtol {a['rtol']:.0e} {a['wall_s']:.1f} s,"
             f" ros34pw2 rtol {b['rtol']:.0e} {b['wall_s']:.1f} s: "
             f"{row['wall_ratio']:.2f}x wall, {row['solve_ratio']:.2f}x solves",
             flush=True,

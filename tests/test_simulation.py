@@ -159,9 +159,9 @@ def test_regime_classification_on_synthetic_series():
 
 
 def test_periods_are_accurate_below_the_save_interval():
-    """Saved every 0.1 (about 25 and 31 samples a period, incommensurate), the TR period from parabola-refined minima
-    and the TU period from interpolated passages through -pi/2 are exact to 1e-4 relative (the
-    sample times alone are off by up to half the interval: 2 % of a period here).  The series
+    """Saved every 0.1 (about 25 and 31 samples a period, incommensurate), the TR period from
+    refined minima and the TU period from interpolated passages through -pi/2 are exact to 1e-4
+    relative (the sample times alone: 4e-3 here).  The series
     are exact: a TR oscillation of period 2.47 with a harmonic, and a non-uniform tumbling of
     half-turn period 3 (psi' = -(pi/3)(1 + 0.3 cos 2 psi'), its exact period from the integral
     of 1/psi')."""
@@ -214,7 +214,8 @@ def test_integrators_converge_at_their_order_with_an_approximate_jacobian(integr
     the true one); the orders are those their papers state (Verwer et al. 1999; Rang &
     Angermann 2005), measured here on a stiff model problem."""
     integ = _ModelIntegrator(RunParameters(grid=12, degree=4, integrator=integrator))
-    if integrator not in ("ros2", "ros34pw2"):  # explicit pairs: stable only for dt < ~2.5/400; drop that mode
+    if integrator not in ("ros2", "ros34pw2"):  # explicit: stable only for dt < ~2.5/400
+        # drop that mode
         integ.G = np.array([0.0, 0.0, 3.0, 40.0, 0.0])
     y0 = np.full((5, 5), 0.3 + 0.0j)
 
