@@ -69,9 +69,9 @@ LEADING = 6
 
 #: Newton iterations of a corrector step before the step is halved.  A diverging corrector
 #: stops earlier on its own; a converging one may need more than 15 where Newton converges only
-#: linearly (v = 0.85, chi = 1, N = 4: the steady equations' Jacobian is singular at the
-#: solution, see docs/continuation.md; at lam = 3.928 the residual fell from 1.8e-4 to 1.8e-8
-#: in 15 iterations, and a fold was reported at 3.921 where the branch goes on past 3.94).
+#: linearly (v = 0.85, chi = 1, N = 4: contraction 0.49 an iteration, see docs/continuation.md;
+#: at lam = 3.928 the residual fell from 1.8e-4 to 1.8e-8 in 15 iterations, and a fold was
+#: reported at 3.921 where the branch goes on past 3.94).
 BRANCH_ITERATIONS = 25
 
 #: A corrector result farther from the predictor than this multiple of the predictor step is
