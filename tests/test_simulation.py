@@ -288,6 +288,14 @@ def test_post_step_recentres_then_restores_area_and_volume():
     assert abs(shape.volume / base.volume - 1) <= p.drift_tol
 
 
+def test_a_step_near_a_save_time_is_split_evenly_not_into_a_sliver():
+    from vesicle.simulation import _landing_step
+
+    assert _landing_step(0.06, 0.05) == 0.05  # covers it: land
+    assert _landing_step(0.03, 0.05) == 0.025  # more than half: two even steps, no 0.02 sliver
+    assert _landing_step(0.02, 0.05) == 0.02  # less than half: the proposal
+
+
 def test_landing_on_a_save_time_does_not_shrink_the_next_step():
     """A step cut short to hit a save time keeps the proposal it was cut from: the steps right
     after each save are not smaller than the cut step's proposal would make them."""

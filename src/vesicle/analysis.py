@@ -226,7 +226,7 @@ def classify_regime(
     than ``steady_tol`` over the last ``tail`` fraction of the run; TR when psi oscillates there
     with at least two minima and does not decay (a fitted amplitude falling by less than 20 % over
     the tail; a damped oscillation is a TT approach).  The period is the mean time between
-    consecutive minima of psi (TR, each refined by a parabola through its three samples) or between
+    consecutive minima of psi (TR, each refined by :func:`refined_minima`) or between
     the passages of psi through -pi/2 (TU, so a half turn; interpolated between the samples around
     each jump): accurate well below the save interval.
     """
