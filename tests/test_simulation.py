@@ -253,6 +253,8 @@ def test_damped_oscillation_fit_recovers_its_parameters(omega):
     assert fit.omega == pytest.approx(omega, rel=1e-3, abs=1e-4)
     assert fit.psi_inf == pytest.approx(0.3, abs=1e-5)
     assert fit.amplitude == pytest.approx(0.05, rel=1e-3)
+    late = t > 3.0  # the fit evaluates to the series it was fitted to
+    np.testing.assert_allclose(fit(t[late]), psi[late], atol=1e-5)
     assert fit.rms_residual < 2e-6
     with pytest.raises(ValueError, match="periods"):
         fit_damped_oscillation(t[:75], psi[:75], t_min=0.0)  # 1.2 periods at most

@@ -355,6 +355,13 @@ class DampedOscillation:
     def omega(self) -> tuple[float, float]:
         return self.omega_R, self.omega_I
 
+    def __call__(self, t: np.ndarray) -> np.ndarray:
+        """The fitted ``psi(t)``."""
+        t = np.asarray(t, float)
+        return self.psi_inf + self.amplitude * np.exp(self.omega_I * t) * np.cos(
+            self.omega_R * t + self.phase
+        )
+
 
 def fit_damped_oscillation(
     t: np.ndarray, psi: np.ndarray, t_min: float | None = None

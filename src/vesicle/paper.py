@@ -198,8 +198,6 @@ def _fig8(folder: Path, quick: bool, options: dict) -> dict:
 def _fig9(folder: Path, quick: bool, options: dict) -> dict:
     """Table 1's steady state perturbed and time-stepped: psi(t) and the fit of its damped
     oscillation against the most unstable eigenvalue of the stability analysis (SPEC §14)."""
-    import numpy as np
-
     from .analysis import fit_damped_oscillation
     from .branch import reach
     from .dynamics import RunParameters
@@ -229,9 +227,7 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
     ax = fig.add_subplot()
     ax.plot(t, psi, lw=1.0, label="time stepping")
     window = t >= fit.t_min
-    model = fit.psi_inf + fit.amplitude * np.exp(fit.omega_I * t[window]) * np.cos(
-        fit.omega_R * t[window] + fit.phase)  # fmt: skip
-    ax.plot(t[window], model, "--", lw=1.0,
+    ax.plot(t[window], fit(t[window]), "--", lw=1.0,
             label=f"fit: omega = ({fit.omega_R:.4f}, {fit.omega_I:.4f})")  # fmt: skip
     ax.set_xlabel("t")
     ax.set_ylabel("psi")
