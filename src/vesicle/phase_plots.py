@@ -81,8 +81,8 @@ def _label(curve: dict) -> str:
 
 
 def _outside_legend(fig, ax) -> None:
-    """The legend right of the axes (it hid points inside them), the axes narrowed to make room."""
-    fig.subplots_adjust(left=0.09, right=0.68)
+    """The legend right of the axes (it hid points inside them); the figure's constrained
+    layout narrows the axes to make room."""
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="x-small", borderaxespad=0)
 
 
