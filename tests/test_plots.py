@@ -58,13 +58,14 @@ def test_in_plane_run_writes_all_figures(tmp_path):
     paths = plot_run(run, outdir, prefix="run1_", dpi=50)
     assert_pngs(paths, IN_PLANE, outdir, "run1_")
     assert not (outdir / "run1_axes_sphere.png").exists()
+    assert not (outdir / "run1_axes_projection.png").exists()
 
 
 def test_out_of_plane_run_adds_axes_sphere(tmp_path):
     run = synthetic_run(azimuth=0.4)
     assert is_out_of_plane(run)
     paths = plot_run(run, tmp_path, dpi=50)
-    assert_pngs(paths, [*IN_PLANE, "axes_sphere"], tmp_path)
+    assert_pngs(paths, [*IN_PLANE, "axes_sphere", "axes_projection"], tmp_path)
 
 
 def test_tilt_parameter_marks_out_of_plane():

@@ -259,6 +259,37 @@ def _plot_axes_sphere(run: RunData, path: Path, dpi: int) -> Path:
     return _save(fig, path, dpi)
 
 
+def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
+    """The 2-D companion of the sphere plot: the axes seen along the vorticity axis (their x-z
+    projections, the unit circle drawn) and the long axis's polar angle from y and azimuth about
+    y against time (the coordinates :func:`vesicle.analysis.classify_orbit` reads)."""
+    axes = continuous_axes(_series(run, "axes"))
+    t = np.asarray(run.series["t"], dtype=float)
+    fig = _figure((10.0, 4.6))
+    left, right = fig.subplots(1, 2)
+    circle = np.linspace(0.0, 2.0 * np.pi, 200)
+    left.plot(np.cos(circle), np.sin(circle), color="0.8", lw=0.8)
+    for k, name in enumerate(("long", "middle", "short")):
+        a = axes[:, k]
+        left.plot(a[:, 0], a[:, 2], color=f"C{k}", lw=1.2, label=f"{name} axis")
+        left.scatter(a[-1, 0], a[-1, 2], color=f"C{k}", s=20)
+    left.set_aspect("equal")
+    left.set_xlabel("x")
+    left.set_ylabel("z")
+    left.set_title("seen along the vorticity axis y", fontsize="medium")
+    left.legend(loc="upper right", fontsize="small")
+    a = axes[:, 0]
+    polar = np.arccos(np.clip(np.abs(a[:, 1]), 0.0, 1.0))
+    azimuth = np.unwrap(np.arctan2(a[:, 2], a[:, 0]))
+    right.plot(t, polar / np.pi, color="C0", label="angle from y / pi")
+    right.plot(t, azimuth / (2.0 * np.pi), color="C3", label="azimuth about y / 2 pi")
+    right.set_xlabel("t")
+    right.grid(alpha=0.3)
+    right.legend(loc="best", fontsize="small")
+    right.set_title(_title(run, "long axis"), fontsize="medium")
+    return _save(fig, path, dpi)
+
+
 # ---------------------------------------------------------------------- entry
 def plot_run(run: RunData, outdir: str | Path, prefix: str = "", dpi: int = 120) -> list[Path]:
     """Write the diagnostic PNG figures of a run.
@@ -278,7 +309,8 @@ def plot_run(run: RunData, outdir: str | Path, prefix: str = "", dpi: int = 120)
     -------
     list of Path
         In this order: ``psi, deformation, stress, orbit, shape_xz, shape_xy`` and, for runs
-        that leave the shear plane (see :func:`is_out_of_plane`), ``axes_sphere``.
+        that leave the shear plane (see :func:`is_out_of_plane`), ``axes_sphere`` and
+        ``axes_projection``.
 
     Raises
     ------
@@ -303,5 +335,6 @@ def plot_run(run: RunData, outdir: str | Path, prefix: str = "", dpi: int = 120)
     ]
     if is_out_of_plane(run):
         paths.append(_plot_axes_sphere(run, target("axes_sphere"), dpi))
+        paths.append(_plot_axes_projection(run, target("axes_projection"), dpi))
     logger.info("wrote %d figures to %s", len(paths), outdir)
     return paths
