@@ -101,6 +101,16 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
             '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[task]\njacobian = "x"\n',
             "jacobian",
         ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
+            'orientation = "y"\n',
+            "orientation must be one of flow, vorticity",
+        ),
+        (
+            '[sweep]\ntask = "branch"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+            'parameter = "lam"\nvalues = "1:3"\norientation = "vorticity"\n',
+            "orientation",
+        ),
     ],
 )
 def test_bad_configs_are_refused_naming_the_key(tmp_path, body, message):
@@ -348,3 +358,23 @@ def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
     assert entry["result"]["t_final"] == pytest.approx(0.12)
     assert entry["result"]["final"]["psi"] == pytest.approx(float(whole.series["psi"][-1]),
                                                             abs=1e-12)  # fmt: skip
+
+
+def test_a_stability_sweep_on_the_vorticity_branch(tmp_path):
+    """[task] orientation = "vorticity": the point is the vorticity-aligned state (long axis
+    along y, as `vesicle tt --orientation vorticity` reports) analysed in general modes."""
+    path = write(tmp_path, '[sweep]\ntask = "stability"\nout = "s.h5"\n[grid]\nchi = [4.0]\n'
+                           'lam = [11.0]\n[task]\norientation = "vorticity"\n' + SMALL)  # fmt: skip
+    store = run_sweep(read_sweep_config(path), workers=1)
+    (record,) = store.records.values()
+    assert record["status"] == "done", record
+    result = record["result"]
+    assert result["orientation"] == "vorticity"
+    assert abs(abs(result["long_axis"][1]) - 1.0) < 1e-9
+    assert result["modes"] == "general"
+    r = CliRunner().invoke(main, ["tt", "--orientation", "vorticity", "--lam", "11", "--chi", "4",
+                                  "--degree", "4", "--grid", "12", "--stability", "--modes",
+                                  "general", "--json"])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    direct = json.loads(r.output.strip().splitlines()[-1])
+    assert result["omega_I"] == pytest.approx(direct["omega_I"], abs=1e-9)

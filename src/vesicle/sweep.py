@@ -23,7 +23,9 @@ TOML file::
                            #   parameter ("lam" | "chi" | "v", not in [grid]) and values
                            #   ("1:9", "1:9:0.5" or a list), past_fold, xtol; for neutral:
                            #   chi ("0.1:10" with points, or a list), xtol, type_tol,
-                           #   locate_type_change
+                           #   locate_type_change; orientation ("flow" | "vorticity": the
+                           #   TT branch) for tt, stability (general modes by default on the
+                           #   vorticity branch), critical and neutral
 
 A ``branch`` point is a whole branch at the fixed values of its grid point (e.g. one per v and
 chi, continued in lam), a ``neutral`` point a whole neutral curve at its v: sweeps of these run
@@ -69,6 +71,7 @@ from .neutral import neutral_curve
 from .parameters import Discretisation, Physics
 from .simulation import load_parameters, simulate
 from .stability import stability
+from .steady import ORIENTATIONS
 from .steady_io import steady_summary
 
 __all__ = [
@@ -92,18 +95,26 @@ GRID_KEYS = ("v", "lam", "chi")
 
 # ------------------------------------------------------------------------ tasks
 def _tt(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    newton = {k: options[k] for k in ("jacobian", "max_iterations") if k in options}
-    return steady_summary(reach(physics, disc, **newton))
+    return steady_summary(reach(physics, disc, **_newton(options)))
+
+
+def _newton(options: dict) -> dict:
+    """The Newton options of a steady-state task (the branch: ``orientation``)."""
+    return {k: options[k] for k in ("jacobian", "max_iterations", "orientation") if k in options}
+
+
+def _default_modes(options: dict) -> str:
+    """The vorticity-aligned branch loses stability to modes breaking the x-z symmetry."""
+    return "general" if options.get("orientation") == "vorticity" else "symmetric"
 
 
 def _stability(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    newton = {k: options[k] for k in ("jacobian", "max_iterations") if k in options}
-    r = reach(physics, disc, **newton)
-    return steady_summary(r, stability(r, modes=options.get("modes", "symmetric")))
+    r = reach(physics, disc, **_newton(options))
+    return steady_summary(r, stability(r, modes=options.get("modes", _default_modes(options))))
 
 
 def _critical(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    keys = ("jacobian", "max_iterations", "xtol", "lam0")
+    keys = ("jacobian", "max_iterations", "xtol", "lam0", "orientation")
     c = critical_lambda(physics, disc, **{k: options[k] for k in keys if k in options})
     return critical_summary(c, physics, disc)
 
@@ -138,7 +149,7 @@ def _neutral_chi(options: dict) -> list[float]:
 
 
 def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    keys = ("jacobian", "xtol", "type_tol", "locate_type_change")
+    keys = ("jacobian", "xtol", "type_tol", "locate_type_change", "orientation")
     c = neutral_curve(physics, _neutral_chi(options), disc,
                       **{k: options[k] for k in keys if k in options})  # fmt: skip
     return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
@@ -207,14 +218,20 @@ class Task:
 
 #: The tasks, by name; each point's result has the keys of the command's own --json output.
 TASKS = {
-    "tt": Task(_tt, GRID_KEYS, ("jacobian", "max_iterations")),
-    "stability": Task(_stability, GRID_KEYS, ("jacobian", "max_iterations", "modes")),
-    "critical": Task(_critical, ("v", "chi"), ("jacobian", "max_iterations", "xtol", "lam0")),
+    "tt": Task(_tt, GRID_KEYS, ("jacobian", "max_iterations", "orientation")),
+    "stability": Task(
+        _stability, GRID_KEYS, ("jacobian", "max_iterations", "modes", "orientation")
+    ),
+    "critical": Task(
+        _critical, ("v", "chi"), ("jacobian", "max_iterations", "xtol", "lam0", "orientation")
+    ),
     "branch": Task(
         _branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold", "ellipsoid")
     ),
     "neutral": Task(
-        _neutral, ("v",), ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change")
+        _neutral,
+        ("v",),
+        ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change", "orientation"),
     ),
     "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
     "run": Task(_run, GRID_KEYS, ()),
@@ -225,7 +242,7 @@ _TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
                "values": (str, list), "past_fold": (int,), "chi": (str, list),
                "points": (int,), "type_tol": (int, float),
                "locate_type_change": (bool,), "ellipsoid": (bool,), "psi": (str, list),
-               "lams": (str, list)}  # fmt: skip
+               "lams": (str, list), "orientation": (str,)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
@@ -350,6 +367,9 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
             out_path = out_path if out_path.is_absolute() else path.parent / out_path
             # the run files of the points, beside the store (vesicle plot / analyze read them)
             settings["runs_dir"] = str(out_path.parent / f"{out_path.stem}_runs")
+        if "orientation" in options and options["orientation"] not in ORIENTATIONS:
+            raise ValueError(f"[task] orientation must be one of {', '.join(ORIENTATIONS)}, "
+                             f"got {options['orientation']!r}")  # fmt: skip
         if "modes" in options and options["modes"] not in ("symmetric", "general"):
             raise ValueError(f"[task] modes must be 'symmetric' or 'general', got "
                              f"{options['modes']!r}")  # fmt: skip
