@@ -17,8 +17,9 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     """Table 1 at N = 2, 4 on 12x24 and the spectrum figures (quick): index.html links only
     files that exist; a failing item is shown with its error and the others still come; the
     missing items are listed with their reason; a second call recomputes nothing."""
-    items = [i for i in ITEMS if i.key in ("table1", "fig2", "fig22")]
+    items = [i for i in ITEMS if i.key in ("table1", "fig2")]
     items.append(Item("broken", "Figure 99", "an item that fails", _boom))
+    items.append(Item("absent", "Figure 98", "an item not computable", None, "on purpose here"))
     page = build_report(tmp_path, quick=True, items=items,
                         options={"grid": 12, "degrees": [2, 4]})  # fmt: skip
     text = page.read_text()
@@ -29,7 +30,7 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     for ref in images + links:
         assert (tmp_path / ref).is_file(), ref
     assert "this item fails on purpose" in text
-    assert "Not computed: the tracer follows that branch" in text
+    assert "Not computed: on purpose here" in text
     rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
     assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
     record = tmp_path / "table1" / "item.json"
@@ -47,6 +48,26 @@ def test_table1_reference_values_are_those_of_spec_14():
 
 def test_paper_cli_lists_and_refuses_unknown_items(tmp_path):
     r = CliRunner().invoke(main, ["paper", "--list"])
-    assert r.exit_code == 0 and "table1" in r.output and "missing" in r.output
+    assert r.exit_code == 0 and "table1" in r.output and "fig23" in r.output
     r = CliRunner().invoke(main, ["paper", "--quick", "--only", "fig99", "--out", str(tmp_path)])
     assert r.exit_code != 0 and "unknown item" in r.output
+
+
+def test_tilted_starts_item_writes_its_orbits_and_figures(tmp_path):
+    """Figure 23's item on one short tilted run (N = 4, 12x24, to t = 0.5): the CSV row with
+    its orbit class, both axes figures, and a second call that only reads the run file."""
+    item = next(i for i in ITEMS if i.key == "fig23")
+    options = {"grid": 12, "t_end": 0.5, "tilted": [(11.0, 54.0)]}
+    page = build_report(tmp_path, quick=True, items=[item], options=options)
+    text = page.read_text()
+    assert "Figures 23, 24" in text
+    rows = (tmp_path / "fig23" / "fig23.csv").read_text().splitlines()
+    assert len(rows) == 2 and rows[0].startswith("lam,tilt_deg,tilt_over_pi,regime,orbit")
+    assert rows[1].startswith("11.0,54.0,0.3,out-of-plane,")
+    for name in ("axes_sphere", "axes_projection"):
+        assert (tmp_path / "fig23" / f"lam11_tilt54_{name}.png").is_file()
+    run_file = tmp_path / "fig23" / "lam11_tilt54.h5"
+    before = run_file.stat().st_mtime_ns
+    (tmp_path / "fig23" / "item.json").unlink()  # recompute the item: the finished run is kept
+    build_report(tmp_path, quick=True, items=[item], options=options)
+    assert run_file.stat().st_mtime_ns == before

@@ -127,34 +127,51 @@ def _fig_spectrum(folder: Path, quick: bool, options: dict) -> dict:
                            "grid": grid}}  # fmt: skip
 
 
-def _neutral_item(vs_: list[float], key: str) -> Callable[[Path, bool, dict], dict]:
+def _neutral_item(
+    vs_: list[float],
+    key: str,
+    orientation: str = "flow",
+    quick_chi: str = "[0.2, 0.5, 1.0, 3.0, 10.0]",
+    quick_vs: list[float] | None = None,
+    beside: str | None = None,
+) -> Callable[[Path, bool, dict], dict]:
     """Neutral curves at the reduced volumes ``vs_`` (a neutral sweep: the curves side by side on
-    the workers), drawn as the chi-lambda and S-Lambda diagrams."""
+    the workers), drawn as the chi-lambda and S-Lambda diagrams.  ``orientation``: the TT
+    branch traced; ``beside``: another item whose store's curves are drawn too (the in-plane
+    curves beside the vorticity-aligned ones), when that item has run."""
 
     def compute(folder: Path, quick: bool, options: dict) -> dict:
         from .phase_plots import plot_neutral
         from .sweep import SweepStore, read_sweep_config, run_sweep
 
-        chi = "[0.2, 0.5, 1.0, 3.0, 10.0]" if quick else '"0.1:10"\npoints = 13'
+        chi = quick_chi if quick else '"0.1:10"\npoints = 13'
+        volumes = list(quick_vs or vs_) if quick else list(vs_)
         grid, degree = (16, 4) if quick else (32, 8)
         config = folder / f"{key}.toml"
         config.write_text(f'[sweep]\ntask = "neutral"\nout = "{key}.h5"\n[grid]\n'
-                          f"v = {list(vs_)}\n[task]\nchi = {chi}\n[discretisation]\n"
+                          f"v = {volumes}\n[task]\nchi = {chi}\n"
+                          f'orientation = "{orientation}"\n[discretisation]\n'
                           f"degree = {degree}\ngrid = {grid}\n")  # fmt: skip
         store = run_sweep(read_sweep_config(config), workers=options.get("workers"),
                           scheduler=options.get("scheduler"))  # fmt: skip
         curves = [r["result"] for r in SweepStore.read(store.path).records.values()
                   if r.get("result") and r["result"].get("points")]  # fmt: skip
-        figures = [str(p) for p in plot_neutral(curves, folder)]
+        drawn = list(curves)
+        other = folder.parent / beside / "neutral.h5" if beside else None
+        if other is not None and other.exists():
+            drawn += [r["result"] for r in SweepStore.read(other).records.values()
+                      if r.get("result") and r["result"].get("points")
+                      and r["result"]["degree"] == degree]  # fmt: skip
+        figures = [str(p) for p in plot_neutral(drawn, folder)]
         rows = [{"v": c["v"], "degree": c["degree"], "grid": c["grid"], **p}
                 for c in curves for p in c["points"]]  # fmt: skip
         comparisons = []
         for c in curves:  # SPEC §14: the type change near chi = 0.25 at v = 0.95
             t = c.get("type_change")
-            if t and c["v"] == 0.95:
+            if t and c["v"] == 0.95 and orientation == "flow":
                 comparisons.append({"quantity": "type change chi (v = 0.95)", "paper": 0.25,
                                     "ours": t["chi"]})  # fmt: skip
-            if c["v"] == 0.95:
+            if c["v"] == 0.95 and orientation == "flow":
                 one = [p for p in c["points"] if abs(p["chi"] - 1.0) < 1e-9]
                 if one and degree == 8:
                     comparisons.append({"quantity": "lambda_c (v = 0.95, chi = 1)",
@@ -164,7 +181,8 @@ def _neutral_item(vs_: list[float], key: str) -> Callable[[Path, bool, dict], di
                     if r["status"] != "done"]  # fmt: skip
         return {"figures": figures, "tables": [_write_csv(folder / f"{key}.csv", rows)],
                 "comparisons": comparisons, "failures": failures,
-                "parameters": {"v": list(vs_), "degree": degree, "grid": grid}}  # fmt: skip
+                "parameters": {"v": volumes, "degree": degree, "grid": grid,
+                               "orientation": orientation}}  # fmt: skip
 
     return compute
 
@@ -251,6 +269,55 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
                            "rtol": 1e-4}}  # fmt: skip
 
 
+#: SPEC §13 and the paper's Fig. 23, 24: tilted starts at v = 0.95, chi = 4 as (lam, tilt in
+#: degrees): lam = 11 at 0.2 pi ... 0.5 pi, lam = 10.5, 10 and 9 at 0.3 pi.
+TILTED = [(11.0, 36.0), (11.0, 54.0), (11.0, 72.0), (11.0, 90.0), (10.5, 54.0), (10.0, 54.0),
+          (9.0, 54.0)]  # fmt: skip
+
+
+def _fig23(folder: Path, quick: bool, options: dict) -> dict:
+    """Tilted starts (SPEC §13): each run to ``t_end`` (resumed from its file when cut short),
+    the orbit of its long axis classified (:func:`vesicle.analysis.classify_orbit`) over the last
+    half, its axes drawn on the unit sphere and seen along the vorticity axis."""
+    from .analysis import summarize
+    from .dynamics import RunParameters
+    from .io import read_run
+    from .plots import plot_out_of_plane
+    from .simulation import simulate
+
+    grid, degree = (16, 4) if quick else (32, 8)
+    grid = int(options.get("grid", grid))
+    t_end = float(options.get("t_end", 60.0))
+    cases = options.get("tilted", TILTED)
+    rows, figures = [], []
+    for lam, tilt in cases:
+        name = f"lam{lam:g}_tilt{tilt:g}"
+        path = folder / f"{name}.h5"
+        params = RunParameters(v=0.95, lam=lam, chi=4.0, grid=grid, degree=degree, t_end=t_end,
+                               save_every=0.05, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
+                               rtol=1e-3, save_fields=False)  # fmt: skip
+        run = read_run(path) if path.exists() else None
+        if run is not None and run.checkpoint is None:  # written before its first checkpoint
+            run = None
+        if run is None or not run.checkpoint.get("stopped"):  # new, or cut short: resume
+            run = simulate(params, out=path, resume=run)
+        s = summarize(run)
+        orbit = s.get("orbit") or {}
+        rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
+                     "regime": s["regime"], "orbit": orbit.get("class"),
+                     "orbit_period": orbit.get("period"), "psi_period": s["period"],
+                     "detail": orbit.get("detail", s["regime_detail"]),
+                     "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+        figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
+    return {"figures": figures, "tables": [_write_csv(folder / "fig23.csv", rows)],
+            "comparisons": [], "rows": rows,
+            "note": "orbit classes over the last half of each run: in-plane (then the psi regime "
+                    "decides TR or TU), vorticity-TT, precession about y, figure-8 about x",
+            "parameters": {"v": 0.95, "chi": 4.0, "degree": degree, "grid": grid,
+                           "t_end": t_end, "integrator": "ros34pw2", "rtol": 1e-3,
+                           "cases": [list(c) for c in cases]}}  # fmt: skip
+
+
 ITEMS: list[Item] = [
     Item("table1", "Table 1", "most unstable mode against the shape degree N", _table1),
     Item(
@@ -304,18 +371,11 @@ ITEMS: list[Item] = [
     Item(
         "fig22",
         "Figure 22",
-        "neutral curves of the vorticity-aligned branch",
-        None,
-        "the tracer follows that branch (vesicle neutral --orientation vorticity); not in the "
-        "report yet",
+        "neutral curves of the vorticity-aligned branch (dashed) beside the in-plane ones",
+        _neutral_item([0.95, 0.90], "neutral", orientation="vorticity",
+                      quick_chi="[2.0, 4.0, 8.0]", quick_vs=[0.95], beside="fig7"),
     ),
-    Item(
-        "fig23",
-        "Figures 23, 24",
-        "tilted starts: orbits of the principal axes",
-        None,
-        "long time-dependent runs: not in the report yet",
-    ),
+    Item("fig23", "Figures 23, 24", "tilted starts: orbits of the principal axes", _fig23),
 ]
 
 

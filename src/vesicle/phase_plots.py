@@ -77,7 +77,13 @@ def plot_neutral(
 
 
 def _label(curve: dict) -> str:
-    return f"v = {curve['v']:g}, N = {curve['degree']} ({curve['grid']}×{2 * curve['grid']})"
+    label = f"v = {curve['v']:g}, N = {curve['degree']} ({curve['grid']}×{2 * curve['grid']})"
+    return label + (", vorticity-aligned" if curve.get("orientation") == "vorticity" else "")
+
+
+def _style(curve: dict) -> str:
+    """Dashed: the vorticity-aligned branch (stable above its curve); solid: the in-plane one."""
+    return "--" if curve.get("orientation") == "vorticity" else "-"
 
 
 def _outside_legend(fig, ax) -> None:
@@ -95,7 +101,7 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
         chi = np.array([p["chi"] for p in pts])
         lam = np.array([p["lambda_c"] for p in pts])
         hopf = np.array([p["bifurcation"] == "hopf" for p in pts])
-        ax.plot(chi, lam, color=color, lw=1.4, label=_label(curve))
+        ax.plot(chi, lam, color=color, lw=1.4, ls=_style(curve), label=_label(curve))
         ax.scatter(chi[hopf], lam[hopf], color=color, s=28, zorder=3)
         ax.scatter(chi[~hopf], lam[~hopf], facecolor="white", edgecolor=color, s=28, zorder=3)
         estimate = np.array([p.get("located") is False for p in pts])
@@ -131,7 +137,7 @@ def _s_lambda(curves, runs, outdir, dpi) -> Path:
         pts = sorted(curve["points"], key=lambda p: p["chi"])
         sl = np.array([lebedev_parameters(curve["v"], p["chi"], p["lambda_c"]) for p in pts])
         hopf = np.array([p["bifurcation"] == "hopf" for p in pts])
-        ax.plot(sl[:, 0], sl[:, 1], color=color, lw=1.4, label=_label(curve))
+        ax.plot(sl[:, 0], sl[:, 1], color=color, lw=1.4, ls=_style(curve), label=_label(curve))
         ax.scatter(sl[hopf, 0], sl[hopf, 1], color=color, s=28, zorder=3)
         ax.scatter(sl[~hopf, 0], sl[~hopf, 1], facecolor="white", edgecolor=color, s=28,
                    zorder=3)  # fmt: skip

@@ -18,7 +18,7 @@ from .analysis import continuous_axes
 from .io import RunData
 from .sphere.transforms import evaluate
 
-__all__ = ["is_out_of_plane", "plot_run", "section_xy", "section_xz"]
+__all__ = ["is_out_of_plane", "plot_out_of_plane", "plot_run", "section_xy", "section_xz"]
 
 logger = logging.getLogger(__name__)
 
@@ -288,6 +288,18 @@ def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
     right.legend(loc="best", fontsize="small")
     right.set_title(_title(run, "long axis"), fontsize="medium")
     return _save(fig, path, dpi)
+
+
+def plot_out_of_plane(
+    run: RunData, outdir: str | Path, prefix: str = "", dpi: int = 120
+) -> list[Path]:
+    """The two figures of a run's principal axes: ``axes_sphere`` (their trajectories on the
+    unit sphere, 3-D) and ``axes_projection`` (seen along the vorticity axis; the long axis's
+    angles against time)."""
+    outdir = Path(outdir)
+    outdir.mkdir(parents=True, exist_ok=True)
+    return [_plot_axes_sphere(run, outdir / f"{prefix}axes_sphere.png", dpi),
+            _plot_axes_projection(run, outdir / f"{prefix}axes_projection.png", dpi)]  # fmt: skip
 
 
 # ---------------------------------------------------------------------- entry
