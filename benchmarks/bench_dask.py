@@ -20,17 +20,17 @@ from vesicle.parallel import executor
 from vesicle.steady import NEWTON_TOLERANCES, initial_guess
 from vesicle.sweep import TASKS, read_sweep_config, run_sweep
 
-#: Points whose default start converges directly (at lam = 4, chi = 1 on 16x32 Newton first
-#: lands on a state with a real unstable mode and `reach` continues from lam = 1: one such point
-#: costs as much as the others together and would set the parallel time alone).
-LAMS = (1.0, 1.5, 2.0, 2.5, 3.0, 3.5)
+#: Points whose default start converges directly (at lam = 3.5 and 4, chi = 1 on 16x32, Newton
+#: diverges or lands on a state with a real unstable mode and `reach` continues from lam = 1:
+#: such a point costs as much as the others together and would set the parallel time alone).
+LAMS = (0.5, 1.0, 1.5, 2.0, 2.5, 3.0)
 
 SWEEP = """[sweep]
 task = "stability"
 out = "s.h5"
 [grid]
 v = [0.95]
-lam = [1.0, 1.5, 2.0, 2.5, 3.0, 3.5]
+lam = [0.5, 1.0, 1.5, 2.0, 2.5, 3.0]
 chi = [1.0]
 [discretisation]
 degree = 4
@@ -62,10 +62,10 @@ def _jacobian(
         return times, M
 
 
-def _sweep(workers: int) -> float:
+def _sweep(workers: int, threads: int | None = None) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "s.toml"
-        path.write_text(SWEEP)
+        path.write_text(SWEEP + ("" if threads is None else f"workers = {threads}\n"))
         t0 = time.perf_counter()
         store = run_sweep(read_sweep_config(path), workers=workers)
         seconds = time.perf_counter() - t0
@@ -100,12 +100,14 @@ def run() -> dict:
               f"{out[f'jacobian_dask_{name}_identical']}")  # fmt: skip
     serial = _sweep_serial()
     out["sweep_serial_s"] = serial
-    for workers in (1, 2):
-        seconds = _sweep(workers)
-        out[f"sweep_dask_{workers}_s"] = seconds
+    for workers, threads in ((1, None), (2, None), (2, 1)):
+        seconds = _sweep(workers, threads)
+        name = f"{workers}" + ("" if threads is None else f"_threads_{threads}")
+        out[f"sweep_dask_{name}_s"] = seconds
+        label = f"{workers}" + ("" if threads is None else f" ({threads} ring thread each)")
         print(
             f"  stability sweep, {len(LAMS)} points N=4 16x32: serial {serial:.1f} s, "
-            f"LocalCluster of {workers} (start-up included): {seconds:.1f} s "
+            f"LocalCluster of {label} (start-up included): {seconds:.1f} s "
             f"({serial / seconds:.2f}x)"
         )
     return out
