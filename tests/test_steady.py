@@ -57,6 +57,18 @@ def test_general_modes_confirm_symmetric_ones_are_most_unstable(steady):
     gen = stability(steady, modes="general")
     assert gen.most_unstable == pytest.approx(sym, rel=1e-4)
     assert gen.omega.shape[0] == FullBasis(4).size - 2 - 3  # constraints and translations
+    # The in-plane state is symmetric under y -> -y, so every mode is even (cos m phi: real
+    # coefficients) or odd (sin m phi: imaginary ones) in both of its temporal parts; the
+    # odd ones exist, and `parts` keeps their real and imaginary parts apart (`modes` mixes
+    # them there: C(Re v) + i C(Im v) with imaginary C's).
+    odd = 0
+    for parts in gen.parts:
+        re = np.abs(np.concatenate([p.real.ravel() for p in parts])).max()
+        im = np.abs(np.concatenate([p.imag.ravel() for p in parts])).max()
+        assert min(re, im) < 1e-10 * max(re, im)
+        odd += im > re
+    assert 0 < odd < len(gen.parts)
+    np.testing.assert_array_equal(gen.modes, gen.parts[:, 0] + 1j * gen.parts[:, 1])
 
 
 def test_continuation_reuses_the_neighbours_jacobian(steady):

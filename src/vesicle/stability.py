@@ -30,8 +30,14 @@ class StabilityResult:
     """Eigen-analysis of a steady state: ``omega`` sorted by ``omega_I`` (most unstable first)."""
 
     omega: np.ndarray  # (k, 2): (omega_R, omega_I)
-    modes: np.ndarray  # (k, N+1, N+1) complex coefficient perturbations (real part is the mode)
+    modes: np.ndarray  # (k, N+1, N+1) complex: C(Re v) + i C(Im v); see ``parts``
     basis: str
+    #: (k, 2, N+1, N+1) complex: the coefficients of the mode's real and imaginary parts (the
+    #: perturbation now and a quarter period later), each a real field.  ``modes`` adds them
+    #: as ``parts[:, 0] + 1j parts[:, 1]``, which separates again only where every coefficient
+    #: is real (the symmetric basis, cos m phi); general modes have sin m phi parts, whose
+    #: coefficients are imaginary, and must be read from here.
+    parts: np.ndarray | None = None
 
     @property
     def most_unstable(self) -> tuple[float, float]:
@@ -72,8 +78,9 @@ def stability(
     growth, speed = np.round(omega[:, 1], 10), np.round(np.abs(omega[:, 0]), 10)
     order = np.lexsort((omega[:, 0], -speed, -growth))
     omega, vec = omega[order], vec[:, order]
-    shapes = np.stack(
-        [basis.to_coefficients(v.real) + 1j * basis.to_coefficients(v.imag) for v in vec.T]
-    )
+    parts = np.stack(
+        [np.stack([basis.to_coefficients(v.real), basis.to_coefficients(v.imag)]) for v in vec.T]
+    ).astype(np.complex128)
+    shapes = parts[:, 0] + 1j * parts[:, 1]
     log.info("most unstable %s mode: omega = (%.4g, %.4g)", modes, *omega[0])
-    return StabilityResult(omega, shapes, modes)
+    return StabilityResult(omega, shapes, modes, parts)

@@ -69,6 +69,7 @@ class SteadyFile:
     arrays: dict  # a, axes, S, S_bending, S_flow, residual_history, M, gradients, basis_*
     omega: np.ndarray | None = None  # (k, 2): (omega_R, omega_I)
     modes: np.ndarray | None = None  # (k, N+1, N+1) complex
+    mode_parts: np.ndarray | None = None  # (k, 2, N+1, N+1): real and imaginary parts
     stability_basis: str | None = None
     attributes: dict = field(default_factory=dict)
 
@@ -149,6 +150,8 @@ def _contents(result: SteadyResult, stability: StabilityResult | None):
         arrays["stability/omega_R"] = stability.omega[:, 0]
         arrays["stability/omega_I"] = stability.omega[:, 1]
         arrays["stability/modes"] = stability.modes
+        if stability.parts is not None:
+            arrays["stability/mode_parts"] = stability.parts
     scalars = {
         "psi": float(result.psi), "D": float(result.D), "S_xz": float(result.stress.S_xz),
         "N1": float(result.stress.N1), "N2": float(result.stress.N2),
@@ -221,6 +224,7 @@ def read_steady(path: str | os.PathLike) -> SteadyFile:
         if stability
         else None,
         modes=arrays.get("stability/modes"),
+        mode_parts=arrays.get("stability/mode_parts"),
         stability_basis=basis,
         attributes=attributes,
     )

@@ -76,23 +76,30 @@ def _plot_mode_spectra(s: SteadyFile, path: Path, dpi: int) -> Path:
 
 def _plot_mode(s: SteadyFile, k: int, path: Path, dpi: int) -> Path:
     base = s.coefficients
-    mode = s.modes[k]
     n = base.shape[0]
-    parts = [("real part", mode.real + 0j)]
+    if s.mode_parts is not None:
+        real, imag = s.mode_parts[k]
+    else:  # a file from before mode_parts: modes separate only for the symmetric basis
+        real, imag = s.modes[k].real + 0j, s.modes[k].imag + 0j
+    parts = [("real part", real)]
     w_r, w_i = s.omega[k]
     if abs(w_r) > 1e-8:
-        parts.append(("imaginary part (a quarter period later)", mode.imag + 0j))
+        parts.append(("imaginary part (a quarter period later)", imag))
+    sections = ((section_xz, ("x", "z")), (section_xy, ("x", "y")))
+    perturbations = []
+    for what, part in parts:
+        c = np.zeros_like(base)
+        c[: part.shape[0], : part.shape[1]] = part[:n, :n]
+        # one scale for both sections, from the larger: a mode odd in y vanishes on y = 0, and
+        # a scale from that section alone would magnify its rounding into a shape
+        size = max(np.abs(sec(c)[0]).max() + np.abs(sec(c)[1]).max() for sec, _ in sections)
+        perturbations.append((what, MODE_AMPLITUDE / size * c if size > 0 else 0.0 * c))
     fig = _figure((9.6, 4.6))
     axes = fig.subplots(1, 2)
-    for (section, labels), ax in zip(((section_xz, ("x", "z")), (section_xy, ("x", "y"))),
-                                     axes, strict=True):  # fmt: skip
+    for (section, labels), ax in zip(sections, axes, strict=True):
         ax.plot(*section(base), color="0.3", lw=1.6, label="steady state")
-        for j, (what, part) in enumerate(parts):
-            c = np.zeros_like(base)
-            c[: part.shape[0], : part.shape[1]] = part[:n, :n]
-            size = np.abs(section(c)[0]).max() + np.abs(section(c)[1]).max()
-            scale = MODE_AMPLITUDE / size if size > 0 else 0.0
-            ax.plot(*section(base + scale * c), color=f"C{j}", lw=1.2, ls="--",
+        for j, (what, c) in enumerate(perturbations):
+            ax.plot(*section(base + c), color=f"C{j}", lw=1.2, ls="--",
                     label=f"perturbed: {what}")  # fmt: skip
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel(labels[0])
@@ -126,6 +133,12 @@ def plot_steady(
             ):  # skip the conjugate of the mode just drawn
                 picked.append(k)
             k += 1
+        if s.mode_parts is None and s.stability_basis == "general":
+            # written before mode_parts: its general modes' sin parts cannot be told apart
+            logger.warning("%s's general modes predate mode_parts: no eigenmode figures (write "
+                           "the file again with vesicle tt --out)", s.attributes.get("file", "the "
+                           "file"))  # fmt: skip
+            picked = []
         for number, k in enumerate(picked, start=1):
             paths.append(_plot_mode(s, k, outdir / f"{prefix}eigenmode_{number}.png", dpi))
     logger.info("wrote %d figures to %s", len(paths), outdir)
