@@ -3,9 +3,11 @@
 import json
 import re
 
+import pytest
 from click.testing import CliRunner
 
 from vesicle.cli import main
+from vesicle.io import read_run
 from vesicle.paper import ITEMS, TABLE1_PAPER, Item, build_report
 
 
@@ -65,9 +67,13 @@ def test_tilted_starts_item_writes_its_orbits_and_figures(tmp_path):
     assert len(rows) == 2 and rows[0].startswith("lam,tilt_deg,tilt_over_pi,regime,orbit")
     assert rows[1].startswith("11.0,54.0,0.3,out-of-plane,")
     for name in ("axes_sphere", "axes_projection"):
-        assert (tmp_path / "fig23" / f"lam11_tilt54_{name}.png").is_file()
-    run_file = tmp_path / "fig23" / "lam11_tilt54.h5"
+        assert (tmp_path / "fig23" / f"lam11_tilt54_N4_12_{name}.png").is_file()
+    run_file = tmp_path / "fig23" / "lam11_tilt54_N4_12.h5"
     before = run_file.stat().st_mtime_ns
     (tmp_path / "fig23" / "item.json").unlink()  # recompute the item: the finished run is kept
     build_report(tmp_path, quick=True, items=[item], options=options)
     assert run_file.stat().st_mtime_ns == before
+    (tmp_path / "fig23" / "item.json").unlink()  # a longer t_end continues the same run
+    build_report(tmp_path, quick=True, items=[item], options={**options, "t_end": 0.7})
+    t = read_run(run_file).series["t"]
+    assert t[-1] == pytest.approx(0.7) and t[0] == 0.0

@@ -293,7 +293,7 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     cases = options.get("tilted", TILTED_QUICK if quick else TILTED)
     rows, figures = [], []
     for lam, tilt in cases:
-        name = f"lam{lam:g}_tilt{tilt:g}"
+        name = f"lam{lam:g}_tilt{tilt:g}_N{degree}_{grid}"  # a resolution never reuses another's
         path = folder / f"{name}.h5"
         params = RunParameters(v=0.95, lam=lam, chi=4.0, grid=grid, degree=degree, t_end=t_end,
                                save_every=0.05, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
@@ -301,8 +301,8 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
         run = read_run(path) if path.exists() else None
         if run is not None and run.checkpoint is None:  # written before its first checkpoint
             run = None
-        if run is None or not run.checkpoint.get("stopped"):  # new, or cut short: resume
-            run = simulate(params, out=path, resume=run)
+        if run is None or float(run.checkpoint["t"]) < t_end - 1e-9:  # new, cut short or
+            run = simulate(params, out=path, resume=run)  # asked to go further: resume
         s = summarize(run)
         orbit = s.get("orbit") or {}
         rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
