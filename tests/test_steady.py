@@ -25,8 +25,9 @@ def newton_reference():
     """The same state by the reference Newton (a fresh finite-difference Jacobian at every
     step)."""
     return steady_tank_treading(
-        0.95, 8.0, 10.0, degree=4, grid=16, updates="none", jacobian="differences"
-    )
+        0.95, 8.0, 10.0, degree=4, grid=16, updates="none", jacobian="differences",
+        project=False,
+    )  # fmt: skip
 
 
 def test_newton_converges_quadratically(steady, newton_reference):
@@ -37,6 +38,43 @@ def test_newton_converges_quadratically(steady, newton_reference):
     assert steady.shape.area == pytest.approx(4 * np.pi, rel=1e-9)
     assert steady.shape.reduced_volume == pytest.approx(0.95, rel=1e-9)
     assert abs(steady.multipliers[0]) < 1e-2 and abs(steady.multipliers[1]) < 1e-2
+
+
+def test_constraint_projection_lands_on_area_and_volume(steady):
+    """SteadyProblem.project: a perturbed state (its area 1e-2 off) lands on A = 4 pi and
+    V = 4 pi v / 3 (the shape's own quadrature, independent of the correction) to 1e-12, both
+    along the gradients (smallest move) and by the bordered step of the Jacobian; a state on
+    the manifold stays where it is."""
+    P = steady.problem
+    rng = np.random.default_rng(3)
+    a = steady.a + 0.01 * rng.standard_normal(steady.a.size)
+    assert abs(P.shape(a).area - 4 * np.pi) > 1e-3
+    for M in (None, steady.jacobian):
+        s = P.shape(P.project(a, M))
+        assert s.area == pytest.approx(4 * np.pi, rel=1e-12)
+        assert s.volume == pytest.approx(4 * np.pi * 0.95 / 3, rel=1e-12)
+    along = P.project(a) - a  # in the span of the two gradients
+    g = P.gradients(P.shape(a))
+    coefficients = np.linalg.lstsq(g.T, along, rcond=None)[0]
+    assert np.linalg.norm(g.T @ coefficients - along) < 0.05 * np.linalg.norm(along)
+    np.testing.assert_allclose(P.project(steady.a, steady.jacobian), steady.a, atol=1e-9)
+
+
+def test_constraint_correction_keeps_the_reused_jacobian(steady):
+    """A branch step (lam 8 -> 8.3): the chord step on the neighbour's Jacobian halves the
+    dynamic residual, but its quadratic area error made the old residual grow (3.8e-3 ->
+    3.0e-3, then a fresh Jacobian; measured).  With the second-order correction the first step
+    contracts by 60 (to 6.1e-5) and no Jacobian is formed; both reach the same state (to
+    their tolerance 1e-8 in the residual), whose eigenvalues then agree to about 1e-6
+    (measured 9.4e-7 in omega_I = -0.0329)."""
+    opts = dict(degree=4, grid=16, initial=steady)
+    new = steady_tank_treading(0.95, 8.3, 10.0, **opts)
+    old = steady_tank_treading(0.95, 8.3, 10.0, project=False, **opts)
+    assert new.jacobians == 0 < old.jacobians
+    assert new.residual_history[1] < 0.05 * new.residual_history[0]
+    np.testing.assert_allclose(new.a, old.a, atol=1e-7)
+    np.testing.assert_allclose(stability(new).most_unstable, stability(old).most_unstable,
+                               rtol=1e-6, atol=3e-6)  # fmt: skip
 
 
 def test_symmetric_stability_near_paper(steady):
@@ -161,6 +199,20 @@ def test_critical_lambda_low_resolution():
     c = critical_lambda(0.95, 1.0, degree=4, grid=16, lam0=8.0, xtol=1e-2)
     assert c.lambda_c == pytest.approx(8.337, abs=0.02)
     assert c.bifurcation == "hopf" and c.omega_R == pytest.approx(0.387, rel=0.02)
+
+
+def test_critical_lambda_from_a_coarse_search():
+    """The coarse-to-fine search: a first search at N = 4 on 12 x 24 places the first
+    evaluation at 16 x 32, whose lambda_c (8.3370 measured) is the reference bracketing's from
+    the leading-order start, 8.3371 at xtol 1e-3 (bracket [8.3366, 8.3380], 2026-12-01, the
+    slow test above), with 4 evaluations at 16 x 32 instead of 9."""
+    c = critical_lambda(0.95, 1.0, degree=4, grid=16, coarse=vs.Discretisation(12, 4))
+    assert c.lambda_c == pytest.approx(8.3371, abs=2e-3)
+    assert c.bifurcation == "hopf"
+    assert c.coarse is not None and c.coarse.lambda_c == pytest.approx(c.lambda_c, rel=0.02)
+    assert c.history[0][0] == c.coarse.lambda_c and len(c.history) <= 5
+    with pytest.raises(ValueError, match="coarse"):
+        critical_lambda(0.95, 1.0, degree=4, grid=16, coarse="fast")
 
 
 @pytest.mark.parametrize(

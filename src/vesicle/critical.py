@@ -10,6 +10,7 @@ with a real unstable mode (another branch).
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 from concurrent.futures import Executor
 from dataclasses import dataclass
@@ -20,13 +21,30 @@ from scipy.optimize import brentq
 from . import __version__
 from .branch import branch, reach
 from .parameters import Discretisation, Physics
+from .solver import SolverError
 from .stability import stability
 from .steady import NewtonError, SteadyResult, steady_tank_treading
+from .surface import ShapeError
 from .theory import misbah_critical_lambda
 
 #: Largest relative change of lam reached by one Newton solve from the nearest solution; farther
 #: steps go by a branch (continuation with step halving and a jump guard).
 JUMP_RATIO = 0.05
+
+#: The coarse resolution of ``coarse="auto"``: N = 4 on 16 x 32.  There lambda_c lies 1-3 %
+#: (v = 0.95) and 6-8 % (v = 0.90) below N = 8's on 32 x 64 (docs/continuation.md), against
+#: a factor 2.3 for the leading-order estimate at v = 0.95, chi = 1.
+COARSE = {"grid": 16, "degree": 4}
+
+#: Tolerance on the coarse lambda_c (it only places the first evaluations).
+COARSE_XTOL = 1e-2
+
+#: Relative step from the coarse lambda_c to the second evaluation at full resolution.
+COARSE_STEP = 0.02
+
+#: Largest change of psi (rad) from the coarse critical state to the state Newton continues it
+#: to at full resolution; farther, Newton is taken to have left the branch.
+COARSE_PSI = 0.15
 
 __all__ = ["CriticalResult", "critical_lambda", "critical_summary"]
 
@@ -85,6 +103,8 @@ class CriticalResult:
     bifurcation: str  # "saddle-node" (real crossing) or "hopf" (complex pair)
     omega_R: float
     history: tuple[tuple[float, float, float], ...]  # (lam, omega_R, omega_I) evaluated
+    #: the first search at a coarse resolution this one started from (``coarse`` option)
+    coarse: CriticalResult | None = None
 
 
 def critical_lambda(
@@ -105,6 +125,7 @@ def critical_lambda(
     jacobian: str = "linearised",
     modes: str = "symmetric",
     orientation: str = "flow",
+    coarse: str | Discretisation | None = "auto",
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
 
@@ -119,11 +140,80 @@ def critical_lambda(
     chord iterations on its Jacobian (:func:`steady_tank_treading`), so a nearby evaluation
     costs little more than the stability Jacobian itself.
 
+    ``coarse``: a first search at a coarse resolution (``"auto"``: :data:`COARSE`, N = 4 on
+    16 x 32, when ``discretisation`` is finer, ``lam0`` is not given and the branch is the
+    in-plane one with symmetric modes; a :class:`Discretisation`; or ``None``).  Its
+    ``lambda_c`` is then the first evaluation here, with the relative step :data:`COARSE_STEP`,
+    and its critical state the start of that evaluation's Newton (continuation in resolution),
+    so the search at full resolution skips the far bracketing moves from the leading-order
+    estimate and the detours of the default start.  A coarse search that fails, or a state that
+    does not match its coarse start (another branch), falls back to the default start (logged).
+
     ``modes`` are the perturbations whose growth is bracketed (``"general"`` for the
     out-of-plane branch, which loses stability to perturbations that break the x-z symmetry);
     ``orientation`` the TT branch of the first evaluation (later ones continue from it).
     """
     physics, discretisation = _critical_objects(physics, discretisation, degree, grid, v, chi)
+    options = {"factor": factor, "executor": executor, "progress": progress,
+               "max_iterations": max_iterations, "jacobian": jacobian, "modes": modes,
+               "orientation": orientation}  # fmt: skip
+    coarse_disc = _coarse_discretisation(discretisation, coarse, lam0, orientation, modes)
+    first, coarse_result = None, None
+    if coarse_disc is not None:
+        try:
+            coarse_result, states = _search(physics, coarse_disc, lam0, step,
+                                            max(xtol, COARSE_XTOL), None, **options)  # fmt: skip
+        except (NewtonError, ShapeError, SolverError, RuntimeError) as err:
+            log.warning("the coarse search (N = %d on %d x %d) failed (%s): searching from the "
+                        "default start", coarse_disc.degree, coarse_disc.grid,
+                        2 * coarse_disc.grid, err)  # fmt: skip
+        else:
+            lam0, step = coarse_result.lambda_c, COARSE_STEP
+            first = states[min(states, key=lambda x: abs(x - lam0))]
+            log.info("coarse lambda_c = %.5g (N = %d on %d x %d): the search starts there",
+                     lam0, coarse_disc.degree, coarse_disc.grid, 2 * coarse_disc.grid)  # fmt: skip
+            if progress is not None:
+                progress({"coarse": f"lambda_c = {lam0:.5g} at N = {coarse_disc.degree} on "
+                                    f"{coarse_disc.grid}x{2 * coarse_disc.grid}"})  # fmt: skip
+    result, _ = _search(physics, discretisation, lam0, step, xtol, first, **options)
+    return dataclasses.replace(result, coarse=coarse_result)
+
+
+def _coarse_discretisation(disc, coarse, lam0, orientation, modes) -> Discretisation | None:
+    if coarse is None or isinstance(coarse, Discretisation):
+        return coarse
+    if coarse != "auto":
+        raise ValueError(f"coarse must be 'auto', None or a Discretisation, got {coarse!r}")
+    finer = disc.degree > COARSE["degree"] and disc.grid > COARSE["grid"]
+    if lam0 is not None or not finer or orientation != "flow" or modes != "symmetric":
+        return None
+    return disc.replace(n_rot=None, **COARSE)
+
+
+def _first_state(physics, disc, start, newton, orientation) -> SteadyResult:
+    """The first evaluation's state: continued from the coarse critical state ``start`` (the
+    same parameters at a coarser resolution) when it converges to a state like it, else as
+    ``vesicle tt`` starts (continuation where Newton cannot)."""
+    if start is not None:
+        try:
+            steady = steady_tank_treading(physics, disc, initial=start, **newton)
+        except (NewtonError, ShapeError, SolverError) as err:
+            log.warning("Newton from the coarse critical state failed (%s): default start", err)
+        else:
+            turned = abs(steady.psi - start.psi)
+            if turned <= COARSE_PSI:
+                return steady
+            log.warning("the state continued from the coarse one turned by %.3g rad (psi %.4g "
+                        "against %.4g): another branch; default start", turned, steady.psi,
+                        start.psi)  # fmt: skip
+    return reach(physics, disc, verify_unstable=True, orientation=orientation, **newton)
+
+
+def _search(
+    physics, discretisation, lam0, step, xtol, first, *, factor, executor, progress,
+    max_iterations, jacobian, modes, orientation,
+) -> tuple[CriticalResult, dict[float, SteadyResult]]:  # fmt: skip
+    """The bracket and Brent's method at one resolution; the result and the states found."""
     history: list[tuple[float, float, float]] = []
     solutions: dict[float, SteadyResult] = {}
 
@@ -148,9 +238,9 @@ def critical_lambda(
                     if leg.stopped:
                         raise NewtonError(leg.stopped)
                     steady = leg.points[-1].steady
-            else:  # the first: as vesicle tt starts (continuation where Newton cannot)
-                steady = reach(physics.replace(lam=lam), discretisation, verify_unstable=True,
-                               orientation=orientation, **newton)  # fmt: skip
+            else:  # the first: from the coarse state, or as vesicle tt starts
+                steady = _first_state(physics.replace(lam=lam), discretisation, first, newton,
+                                      orientation)  # fmt: skip
         except NewtonError as err:
             raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err
         solutions[lam] = steady
@@ -171,7 +261,7 @@ def critical_lambda(
     lam_c = brentq(growth, lo, hi, xtol=xtol)
     nearest = min(history, key=lambda h: abs(h[0] - lam_c))
     kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"
-    return CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history))
+    return CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history)), solutions
 
 
 def critical_summary(result: CriticalResult, physics: Physics, discretisation: Discretisation):
@@ -189,4 +279,8 @@ def critical_summary(result: CriticalResult, physics: Physics, discretisation: D
         "bifurcation": result.bifurcation,
         "omega_R": result.omega_R,
         "history": [list(h) for h in result.history],
+        "coarse": None if result.coarse is None else {
+            "lambda_c": result.coarse.lambda_c,
+            "evaluations": len(result.coarse.history),
+        },
     }

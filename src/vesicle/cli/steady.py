@@ -183,6 +183,13 @@ def tt(
     help="Relative move of lambda from --lam0 to the second evaluation; secant steps follow.",
 )
 @click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
+@click.option(
+    "--coarse/--no-coarse",
+    default=True,
+    show_default=True,
+    help="Locate lambda_c first at N = 4 on 16x32 (when --degree/--grid are finer, --lam0 is not "
+    "given and the branch is the in-plane one) and start the search there.",
+)
 @_ORIENTATION
 @_STABILITY_MODES
 @_MAX_ITERATIONS
@@ -193,7 +200,7 @@ def tt(
 @config_option
 @click.pass_context
 def critical(
-    ctx, lam0, step, xtol, orientation, modes, max_iterations, jacobian, workers, scheduler,
+    ctx, lam0, step, xtol, coarse, orientation, modes, max_iterations, jacobian, workers, scheduler,
     as_json, config_path, **options,
 ) -> None:  # fmt: skip
     """Critical viscosity ratio where steady tank-treading loses stability."""
@@ -213,6 +220,7 @@ def critical(
                 jacobian=jacobian,
                 orientation=orientation,
                 modes=modes or ("general" if orientation == "vorticity" else "symmetric"),
+                coarse="auto" if coarse else None,
             )
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
