@@ -10,7 +10,8 @@ Paths timed in the same run, on the same inputs:
 
 Cases: N = 4 on 16x32 and N = 6 on 24x48; ``VESICLE_BENCH_FULL=1`` adds the paper's N = 8 on
 32x64 (about 13 min) and, there, one continuation step (lam 7 -> 7.3 at chi = 1, with its stability)
-and ``critical_lambda(v=0.95, chi=1)`` from its default start.  Reported: wall times, ratios
+and ``critical_lambda(v=0.95, chi=1)`` from its default start, each by the method before and the
+default (constraint correction; coarse-to-fine search).  Reported: wall times, ratios
 against the reference, GMRES solves, Jacobians formed, the time inside the linearised Jacobians
 (split into factorisation, layer-potential derivatives, local differences and the batched
 solve) and the relative difference of omega from the reference.
@@ -30,7 +31,7 @@ import vesicle.problem as problem_module
 from vesicle.branch import reach
 
 PATHS = {
-    "reference": dict(jacobian="differences", updates="none"),
+    "reference": dict(jacobian="differences", updates="none", project=False),
     "broyden": dict(jacobian="differences", updates="broyden"),
     "broyden_2_workers": dict(jacobian="differences", updates="broyden"),
     "linearised": dict(jacobian="linearised", updates="broyden"),
@@ -77,22 +78,38 @@ def _time(path: str, degree: int, grid: int):
 def _continuation_and_critical(disc) -> dict:
     """Target 2 of issue 12 (N = 8, 32x64): one continuation step lam 7 -> 7.3 at chi = 1 with
     its stability, from the converged lam = 7 state (not timed), and lambda_c at chi = 1 from
-    the default start."""
+    the default start; each by the method before (no constraint correction; the bracketing
+    from the leading-order estimate) and by the default, on the same inputs in the same run."""
     out = {}
     start = reach(vs.Physics(v=0.95, lam=7.0, chi=1.0), disc)
-    t0 = time.perf_counter()
-    step = vs.steady_tank_treading(start.physics.replace(lam=7.3), disc, initial=start)
-    vs.stability(step)
-    out["continuation_step_s"] = time.perf_counter() - t0
-    out["continuation_step_solves"] = step.solves
-    t0 = time.perf_counter()
-    c = vs.critical_lambda(vs.Physics(v=0.95, chi=1.0), disc)
-    out["critical_s"] = time.perf_counter() - t0
-    out["lambda_c"] = c.lambda_c
-    out["critical_evaluations"] = len(c.history)
-    print(f"  continuation step lam 7 -> 7.3 (chi = 1): {out['continuation_step_s']:.1f} s "
-          f"({step.solves} solves); critical_lambda(v=0.95, chi=1): {out['critical_s']:.1f} s, "
-          f"lambda_c = {c.lambda_c:.5f} ({len(c.history)} evaluations)")  # fmt: skip
+    for name, project in (("before", False), ("default", True)):
+        t0 = time.perf_counter()
+        step = vs.steady_tank_treading(start.physics.replace(lam=7.3), disc, initial=start,
+                                       project=project)  # fmt: skip
+        w = vs.stability(step).most_unstable
+        seconds = time.perf_counter() - t0
+        out[f"continuation_step_{name}"] = {
+            "seconds": seconds, "solves": step.solves, "jacobians": step.jacobians,
+            "omega": list(w),
+        }  # fmt: skip
+        print(f"  continuation step lam 7 -> 7.3 (chi = 1), {name}: {seconds:.1f} s "
+              f"({step.solves} solves, {step.jacobians} Newton Jacobians), omega "
+              f"({w[0]:.8f}, {w[1]:.8f})")  # fmt: skip
+    for name, coarse in (("before", None), ("default", "auto")):
+        t0 = time.perf_counter()
+        c = vs.critical_lambda(vs.Physics(v=0.95, chi=1.0), disc, coarse=coarse)
+        seconds = time.perf_counter() - t0
+        coarse_evaluations = len(c.coarse.history) if c.coarse else 0
+        out[f"critical_{name}"] = {"seconds": seconds, "lambda_c": c.lambda_c,
+                                   "evaluations": len(c.history),
+                                   "coarse_evaluations": coarse_evaluations}  # fmt: skip
+        print(f"  critical_lambda(v=0.95, chi=1), {name}: {seconds:.1f} s, lambda_c = "
+              f"{c.lambda_c:.5f} ({len(c.history)} evaluations at N = 8, {coarse_evaluations} "
+              "coarse)")  # fmt: skip
+    for key in ("continuation_step", "critical"):
+        before, new = out[f"{key}_before"]["seconds"], out[f"{key}_default"]["seconds"]
+        out[f"{key}_ratio"] = before / new
+        print(f"  {key}: {before / new:.2f}x")
     return out
 
 
