@@ -6,7 +6,10 @@ Paths timed in the same run, on the same inputs:
   one every Newton step (``jacobian="differences", updates="none"``): the method before issue 12;
 - ``broyden``: the same Jacobians reused with Broyden updates (``jacobian="differences"``);
 - ``broyden_2_workers``: that, with the columns on 2 processes;
-- ``linearised``: the default (the solve differentiated, :mod:`vesicle.linearisation`).
+- ``linearised_nested``: the solve differentiated (:mod:`vesicle.linearisation`), every solve by
+  the nested GMRES (the default before the preconditioned solves);
+- ``linearised``: the default (that, with the solves after a Jacobian preconditioned by its
+  factorised system, :func:`vesicle.factorised.preconditioned_solve`).
 
 Cases: N = 4 on 16x32 and N = 6 on 24x48; ``VESICLE_BENCH_FULL=1`` adds the paper's N = 8 on
 32x64 (about 13 min) and, there, one continuation step (lam 7 -> 7.3 at chi = 1, with its stability)
@@ -32,6 +35,7 @@ from vesicle.branch import reach
 
 PATHS = {
     "reference": dict(jacobian="differences", updates="none", project=False),
+    "linearised_nested": dict(jacobian="linearised", updates="broyden", preconditioned=False),
     "broyden": dict(jacobian="differences", updates="broyden"),
     "broyden_2_workers": dict(jacobian="differences", updates="broyden"),
     "linearised": dict(jacobian="linearised", updates="broyden"),
@@ -77,15 +81,17 @@ def _time(path: str, degree: int, grid: int):
 
 def _continuation_and_critical(disc) -> dict:
     """Target 2 of issue 12 (N = 8, 32x64): one continuation step lam 7 -> 7.3 at chi = 1 with
-    its stability, from the converged lam = 7 state (not timed), and lambda_c at chi = 1 from
-    the default start; each by the method before (no constraint correction; the bracketing
-    from the leading-order estimate) and by the default, on the same inputs in the same run."""
+    its stability, from the converged lam = 7 state (not timed), by the method before (no
+    constraint correction, nested GMRES solves) and the default; and lambda_c at chi = 1 from
+    the default start by the bracketing from the leading-order estimate (``coarse=None``, the
+    search before) and the default coarse-to-fine search; on the same inputs in the same run."""
     out = {}
     start = reach(vs.Physics(v=0.95, lam=7.0, chi=1.0), disc)
-    for name, project in (("before", False), ("default", True)):
+    before = {"project": False, "preconditioned": False}
+    for name, options in (("before", before), ("default", {})):
         t0 = time.perf_counter()
         step = vs.steady_tank_treading(start.physics.replace(lam=7.3), disc, initial=start,
-                                       project=project)  # fmt: skip
+                                       **options)  # fmt: skip
         w = vs.stability(step).most_unstable
         seconds = time.perf_counter() - t0
         out[f"continuation_step_{name}"] = {

@@ -50,14 +50,20 @@ def test_constraint_projection_lands_on_area_and_volume(steady):
     a = steady.a + 0.01 * rng.standard_normal(steady.a.size)
     assert abs(P.shape(a).area - 4 * np.pi) > 1e-3
     for M in (None, steady.jacobian):
-        s = P.shape(P.project(a, M))
+        s = P.shape(P.project(a, M)[0])
         assert s.area == pytest.approx(4 * np.pi, rel=1e-12)
         assert s.volume == pytest.approx(4 * np.pi * 0.95 / 3, rel=1e-12)
-    along = P.project(a) - a  # in the span of the two gradients
+    along = P.project(a)[0] - a  # in the span of the two gradients
     g = P.gradients(P.shape(a))
     coefficients = np.linalg.lstsq(g.T, along, rcond=None)[0]
     assert np.linalg.norm(g.T @ coefficients - along) < 0.05 * np.linalg.norm(along)
-    np.testing.assert_allclose(P.project(steady.a, steady.jacobian), steady.a, atol=1e-9)
+    # one bordered correction leaves the linearised dynamic residual unchanged: M da = g^T dmu
+    b, dmu = P.project(a, steady.jacobian, max_iterations=1)
+    Mda, gdmu = steady.jacobian @ (b - a), g.T @ dmu
+    assert np.linalg.norm(Mda - gdmu) < 1e-10 * np.linalg.norm(Mda) and np.any(dmu != 0)
+    np.testing.assert_allclose(P.project(steady.a, steady.jacobian)[0], steady.a, atol=1e-9)
+    with pytest.raises(ValueError, match="moved"):
+        P.project(a, steady.jacobian, max_move=1e-6)
 
 
 def test_constraint_correction_keeps_the_reused_jacobian(steady):

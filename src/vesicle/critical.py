@@ -13,7 +13,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 from concurrent.futures import Executor
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import brentq
@@ -30,6 +30,9 @@ from .theory import misbah_critical_lambda
 #: Largest relative change of lam reached by one Newton solve from the nearest solution; farther
 #: steps go by a branch (continuation with step halving and a jump guard).
 JUMP_RATIO = 0.05
+
+#: What a search may fail with (then the search without the coarse start is tried).
+_FAILURES = (NewtonError, ShapeError, SolverError, np.linalg.LinAlgError)
 
 #: The coarse resolution of ``coarse="auto"``: N = 4 on 16 x 32.  There lambda_c lies 1-3 %
 #: (v = 0.95) and 6-8 % (v = 0.90) below N = 8's on 32 x 64 (docs/continuation.md), against
@@ -105,6 +108,9 @@ class CriticalResult:
     history: tuple[tuple[float, float, float], ...]  # (lam, omega_R, omega_I) evaluated
     #: the first search at a coarse resolution this one started from (``coarse`` option)
     coarse: CriticalResult | None = None
+    #: the steady states evaluated, in the order of ``history`` (starts for what follows: the
+    #: neutral-curve tracer continues from the stable one nearest lambda_c)
+    states: tuple[SteadyResult, ...] = field(default=(), repr=False, compare=False)
 
 
 def critical_lambda(
@@ -143,11 +149,13 @@ def critical_lambda(
     ``coarse``: a first search at a coarse resolution (``"auto"``: :data:`COARSE`, N = 4 on
     16 x 32, when ``discretisation`` is finer, ``lam0`` is not given and the branch is the
     in-plane one with symmetric modes; a :class:`Discretisation`; or ``None``).  Its
-    ``lambda_c`` is then the first evaluation here, with the relative step :data:`COARSE_STEP`,
-    and its critical state the start of that evaluation's Newton (continuation in resolution),
-    so the search at full resolution skips the far bracketing moves from the leading-order
-    estimate and the detours of the default start.  A coarse search that fails, or a state that
-    does not match its coarse start (another branch), falls back to the default start (logged).
+    ``lambda_c`` is then the first evaluation here, with the relative step :data:`COARSE_STEP`
+    (instead of ``step``), and its critical state the start of that evaluation's Newton
+    (continuation in resolution), so the search at full resolution skips the far bracketing
+    moves from the leading-order estimate and the detours of the default start.  A coarse
+    search that fails, a state that does not match its coarse start (another branch), or a
+    search from there that fails fall back to the search without it (logged).  Progress
+    records of the coarse search carry ``"level": "coarse"``.
 
     ``modes`` are the perturbations whose growth is bracketed (``"general"`` for the
     out-of-plane branch, which loses stability to perturbations that break the x-z symmetry);
@@ -158,12 +166,17 @@ def critical_lambda(
                "max_iterations": max_iterations, "jacobian": jacobian, "modes": modes,
                "orientation": orientation}  # fmt: skip
     coarse_disc = _coarse_discretisation(discretisation, coarse, lam0, orientation, modes)
+    given = {"lam0": lam0, "step": step}  # the search without the coarse start
     first, coarse_result = None, None
     if coarse_disc is not None:
+        coarse_options = dict(options)
+        if progress is not None:  # the coarse evaluations, told apart from the others
+            coarse_options["progress"] = lambda info: progress({"level": "coarse", **info})
         try:
             coarse_result, states = _search(physics, coarse_disc, lam0, step,
-                                            max(xtol, COARSE_XTOL), None, **options)  # fmt: skip
-        except (NewtonError, ShapeError, SolverError, RuntimeError) as err:
+                                            max(xtol, COARSE_XTOL), None,
+                                            **coarse_options)  # fmt: skip
+        except (*_FAILURES, RuntimeError) as err:
             log.warning("the coarse search (N = %d on %d x %d) failed (%s): searching from the "
                         "default start", coarse_disc.degree, coarse_disc.grid,
                         2 * coarse_disc.grid, err)  # fmt: skip
@@ -175,7 +188,15 @@ def critical_lambda(
             if progress is not None:
                 progress({"coarse": f"lambda_c = {lam0:.5g} at N = {coarse_disc.degree} on "
                                     f"{coarse_disc.grid}x{2 * coarse_disc.grid}"})  # fmt: skip
-    result, _ = _search(physics, discretisation, lam0, step, xtol, first, **options)
+    if coarse_result is None:
+        return _search(physics, discretisation, lam0, step, xtol, None, **options)[0]
+    try:
+        result, _ = _search(physics, discretisation, lam0, step, xtol, first, **options)
+    except (*_FAILURES, RuntimeError) as err:  # as without the coarse search
+        log.warning("the search from the coarse lambda_c = %.5g failed (%s): searching from the "
+                    "default start", lam0, err)  # fmt: skip
+        return _search(physics, discretisation, given["lam0"], given["step"], xtol, None,
+                       **options)[0]  # fmt: skip
     return dataclasses.replace(result, coarse=coarse_result)
 
 
@@ -197,7 +218,7 @@ def _first_state(physics, disc, start, newton, orientation) -> SteadyResult:
     if start is not None:
         try:
             steady = steady_tank_treading(physics, disc, initial=start, **newton)
-        except (NewtonError, ShapeError, SolverError) as err:
+        except _FAILURES as err:
             log.warning("Newton from the coarse critical state failed (%s): default start", err)
         else:
             turned = abs(steady.psi - start.psi)
@@ -261,7 +282,9 @@ def _search(
     lam_c = brentq(growth, lo, hi, xtol=xtol)
     nearest = min(history, key=lambda h: abs(h[0] - lam_c))
     kind = "hopf" if nearest[1] > 1e-2 else "saddle-node"
-    return CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history)), solutions
+    states = tuple(solutions[h[0]] for h in history)
+    result = CriticalResult(float(lam_c), kind, float(nearest[1]), tuple(history), states=states)
+    return result, solutions
 
 
 def critical_summary(result: CriticalResult, physics: Physics, discretisation: Discretisation):

@@ -327,6 +327,15 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
         c = critical_lambda(tracer.at(chi, 1.0), tracer.disc, xtol=xtol, modes=modes,
                             orientation=orientation, **tracer.options)  # fmt: skip
         lam_c = c.lambda_c
+        # a stable state of the search (not a fresh start from the spheroid, which at N = 8
+        # may need a detour by continuation from lam = 1), half a margin or more from lambda_c
+        # as in _Tracer.point (next to a fold the branch's Jacobian is singular), nearest the
+        # start of the trace
+        limit, target = lam_c * (1 - 0.5 * side * tracer.margin), lam_c * (1 - side * tracer.margin)
+        stable = [(lam, s) for (lam, _, w_i), s in zip(c.history, c.states, strict=True)
+                  if w_i < 0 and side * (limit - lam) >= 0]  # fmt: skip
+        if stable:
+            start = min(stable, key=lambda x: abs(x[0] - target))[1]
     except (*_FAILURES, RuntimeError) as err:
         log.warning("neutral curve seed at chi = %.4g: the bracketing search failed (%s); "
                     "following the branch instead", chi, err)  # fmt: skip

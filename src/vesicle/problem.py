@@ -22,7 +22,7 @@ from functools import cached_property, partial
 
 import numpy as np
 
-from .factorised import FactorisedSystem
+from .factorised import FactorisedSystem, preconditioned_solve
 from .kinematics import constraint_gradients, rate_of_change
 from .linearisation import linearised_jacobian
 from .parameters import Discretisation, Physics, SolverTolerances
@@ -40,6 +40,10 @@ __all__ = ["JACOBIANS", "SteadyProblem", "finite_difference_jacobian"]
 JACOBIANS = ("linearised", "differences")
 
 log = logging.getLogger(__name__)
+
+#: Relative residual of a preconditioned solve (:meth:`SteadyProblem.solve`): below the nested
+#: solver's 1e-8 (Schur) / 1e-9 (inner), so that Newton's residuals are as clean.
+PRECONDITIONED_RTOL = 1e-10
 
 #: Relative finite-difference step of the Jacobian (scaled by ``max(1, |a_00|)``).
 JACOBIAN_STEP = 1e-4
@@ -60,6 +64,10 @@ class SteadyProblem:
         The basis of the unknowns.
     jacobian_method : {"linearised", "differences"}
         See :data:`JACOBIANS`.
+    preconditioned : bool
+        Solve shapes near that of the last linearised Jacobian by GMRES preconditioned with its
+        factorised system (:func:`vesicle.factorised.preconditioned_solve`; default), else by
+        the nested Schur-complement GMRES (the method before).
     """
 
     physics: Physics
@@ -67,6 +75,7 @@ class SteadyProblem:
     tolerances: SolverTolerances
     modes: str = "symmetric"
     jacobian_method: str = "linearised"
+    preconditioned: bool = True
 
     def __post_init__(self) -> None:
         basis(self.modes, self.discretisation.degree)  # validates the name and the degree
@@ -128,6 +137,10 @@ class SteadyProblem:
             parts = {"bending": system.flow_result(True, False),
                      "flow": system.flow_result(False, True)}  # fmt: skip
             return with_split(system.flow_result(), parts)
+        if not split and kept is not None and self.preconditioned:
+            result = self._preconditioned(shape, kept[1])
+            if result is not None:
+                return result
         return solve_flow(
             shape,
             self.physics,
@@ -137,6 +150,39 @@ class SteadyProblem:
             split=split,
             operators=self._operators(shape),
         )
+
+    def factorise(self, shape: Shape) -> FactorisedSystem:
+        """The factorised velocity-tension system of ``shape`` (linearised Jacobians), kept as
+        the preconditioner of the next solves (:meth:`solve`)."""
+        solver = VelocityTensionSolver(shape, self.physics, self.tolerances,
+                                       self._operators(shape),
+                                       discretisation=self.discretisation)  # fmt: skip
+        system = FactorisedSystem(solver)
+        object.__setattr__(self, "_kept_system", (self._key(shape), system))
+        return system
+
+    def wants_preconditioner(self, shape: Shape) -> bool:
+        """Whether solves of shapes near ``shape`` would be preconditioned but no system is
+        kept yet (a continuation step's first iterate: the neighbour's system is gone)."""
+        return (self.preconditioned and self.jacobian_method == "linearised"
+                and "_kept_system" not in self.__dict__
+                and abs(shape.reduced_volume - 1.0) >= SPHERE_TOLERANCE)  # fmt: skip
+
+    def _preconditioned(self, shape: Shape, system: FactorisedSystem) -> FlowResult | None:
+        """The solve of ``shape`` preconditioned by the kept ``system``, or ``None`` (logged)
+        where GMRES misses its tolerance (a shape too far from the system's): the nested
+        solve then takes over."""
+        solver = VelocityTensionSolver(shape, self.physics, self.tolerances,
+                                       self._operators(shape),
+                                       discretisation=self.discretisation)  # fmt: skip
+        if solver.is_sphere:
+            return None
+        result = preconditioned_solve(solver, system, rtol=PRECONDITIONED_RTOL)
+        if not result.converged:
+            log.info("preconditioned solve: %d iterations without reaching %.0e; nested GMRES",
+                     result.outer_iterations, PRECONDITIONED_RTOL)  # fmt: skip
+            return None
+        return result
 
     @staticmethod
     def _key(shape: Shape) -> tuple:
@@ -174,7 +220,8 @@ class SteadyProblem:
         jacobian: np.ndarray | None = None,
         tolerance: float = 1e-13,
         max_iterations: int = 8,
-    ) -> np.ndarray:
+        max_move: float = np.inf,
+    ) -> tuple[np.ndarray, np.ndarray]:
         """``a`` moved onto the constraints ``A = 4 pi``, ``V = 4 pi v / 3`` (geometry only).
 
         A Newton step meets the constraints to first order only: along a branch step of
@@ -184,13 +231,18 @@ class SteadyProblem:
 
         - with ``jacobian`` (``M``): the bordered step ``[[M, -g^T], [g, 0]] (da, dmu) =
           (0, -(A - A0, V - V0))``, the correction that leaves the linearised dynamic residual
-          unchanged (what the next Newton step would do for the constraints, without a solve);
-        - without: the smallest move, along ``g^T``.
+          ``adot - mu . g`` unchanged when the multipliers move by ``dmu`` too (what the next
+          Newton step would do for the constraints, without a solve);
+        - without: the smallest move, along ``g^T`` (``dmu = 0``).
 
         Iterated with ``g`` at the corrected point until the misfit is below ``tolerance``
-        relative (at most ``max_iterations``); returns the corrected coefficients.
+        relative (at most ``max_iterations``).  Returns the corrected coefficients and the
+        multipliers' change.  Raises :class:`~vesicle.surface.ShapeError` (a shape not
+        representable) and ``ValueError`` when the accumulated move exceeds ``max_move``.
         """
         a = np.asarray(a, float).copy()
+        start = a.copy()
+        dmu = np.zeros(2)
         targets = np.array(self.targets)
         n = a.size
         for _ in range(max_iterations):
@@ -201,11 +253,16 @@ class SteadyProblem:
             g = self.gradients(shape)
             if jacobian is None:
                 a -= g.T @ np.linalg.solve(g @ g.T, misfit)
-                continue
-            J = np.zeros((n + 2, n + 2))
-            J[:n, :n], J[:n, n:], J[n:, :n] = jacobian, -g.T, g
-            a += np.linalg.solve(J, np.concatenate([np.zeros(n), -misfit]))[:n]
-        return a
+            else:
+                J = np.zeros((n + 2, n + 2))
+                J[:n, :n], J[:n, n:], J[n:, :n] = jacobian, -g.T, g
+                step = np.linalg.solve(J, np.concatenate([np.zeros(n), -misfit]))
+                a += step[:n]
+                dmu += step[n:]
+            moved = float(np.linalg.norm(a - start))
+            if moved > max_move:
+                raise ValueError(f"the constraint correction moved {moved:.2e} > {max_move:.2e}")
+        return a, dmu
 
     def residual(
         self, shape: Shape, rate: np.ndarray, multipliers: np.ndarray, gradients: np.ndarray
@@ -246,13 +303,8 @@ class SteadyProblem:
         if self.jacobian_method == "linearised":
             shape = self.shape(a)
             if abs(shape.reduced_volume - 1.0) >= SPHERE_TOLERANCE:
-                solver = VelocityTensionSolver(
-                    shape, self.physics, self.tolerances, self._operators(shape),
-                    discretisation=self.discretisation,
-                )  # fmt: skip
-                system = FactorisedSystem(solver)
-                object.__setattr__(self, "_kept_system", (self._key(shape), system))
-                return linearised_jacobian(solver, self.basis, system=system).jacobian, 0
+                system = self.factorise(shape)
+                return linearised_jacobian(system.solver, self.basis, system=system).jacobian, 0
             log.info("exact sphere: Jacobian by central differences")
             central = True
         h = JACOBIAN_STEP * max(1.0, abs(a[0]))

@@ -115,7 +115,8 @@ def _stability(physics: Physics, disc: Discretisation, options: dict, settings: 
 
 def _critical(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     keys = ("jacobian", "max_iterations", "xtol", "lam0", "orientation")
-    c = critical_lambda(physics, disc, **{k: options[k] for k in keys if k in options})
+    c = critical_lambda(physics, disc, modes=options.get("modes", _default_modes(options)),
+                        **{k: options[k] for k in keys if k in options})  # fmt: skip
     return critical_summary(c, physics, disc)
 
 
