@@ -34,7 +34,7 @@ import vesicle.problem as problem_module
 from vesicle.branch import reach
 
 PATHS = {
-    "reference": dict(jacobian="differences", updates="none", project=False),
+    "reference": dict(jacobian="differences", updates="none", constraints="first-order"),
     "linearised_nested": dict(jacobian="linearised", updates="broyden", preconditioned=False),
     "broyden": dict(jacobian="differences", updates="broyden"),
     "broyden_2_workers": dict(jacobian="differences", updates="broyden"),
@@ -87,7 +87,7 @@ def _continuation_and_critical(disc) -> dict:
     search before) and the default coarse-to-fine search; on the same inputs in the same run."""
     out = {}
     start = reach(vs.Physics(v=0.95, lam=7.0, chi=1.0), disc)
-    before = {"project": False, "preconditioned": False}
+    before = {"constraints": "first-order", "preconditioned": False}
     for name, options in (("before", before), ("default", {})):
         t0 = time.perf_counter()
         step = vs.steady_tank_treading(start.physics.replace(lam=7.3), disc, initial=start,
