@@ -120,6 +120,17 @@ def test_multiplier_curvature_restores_quadratic_convergence():
         steady_tank_treading(r.physics, d, constraints="exact")
 
 
+def test_a_result_at_a_converged_state(steady):
+    """steady_result_at (the pseudo-arclength corrector's states, where Newton at fixed
+    parameters is singular): one evaluation, no Newton step, the same Jacobian as Newton's."""
+    from vesicle.steady import steady_result_at
+
+    r = steady_result_at(steady.problem, steady.a, np.array(steady.multipliers))
+    assert r.converged and r.residual < 1e-8 and r.newton_iterations == 0
+    np.testing.assert_array_equal(r.a, steady.a)
+    np.testing.assert_allclose(r.jacobian, steady.jacobian, atol=1e-7 * np.abs(r.jacobian).max())
+
+
 def test_symmetric_stability_near_paper(steady):
     """Paper, Table 1, N = 4 at 32 x 64: (3.226, -5.602e-2); this is 16 x 32, which gives the
     same five digits as 32 x 64: (3.22943, -0.06263).  omega_R agrees to 0.11 %.  omega_I is

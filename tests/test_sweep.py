@@ -111,6 +111,11 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
             'parameter = "lam"\nvalues = "1:3"\norientation = "vorticity"\n',
             "orientation",
         ),
+        (
+            '[sweep]\ntask = "critical"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+            'coarse = "yes"\n',
+            "coarse",
+        ),
     ],
 )
 def test_bad_configs_are_refused_naming_the_key(tmp_path, body, message):

@@ -601,11 +601,14 @@ def reach(
 
 def _blocks(steady: SteadyResult) -> np.ndarray:
     """``G_y`` of the steady equations in ``y = (a, mu)`` at a converged state (SPEC §8):
-    ``[[M, -g^T], [g, 0]]`` with the central-difference ``M`` and the exact gradients ``g``."""
+    ``[[M - mu . H, -g^T], [g, 0]]`` with the state's Jacobian ``M``, the exact gradients ``g``
+    and the constraints' Hessians ``H`` (the multipliers' curvature, as in Newton)."""
     M, g = steady.jacobian, steady.gradients
+    H = steady.problem.constraint_hessians(steady.a)
     n = M.shape[0]
     J = np.zeros((n + 2, n + 2))
-    J[:n, :n], J[:n, n:], J[n:, :n] = M, -g.T, g
+    J[:n, :n] = M - np.einsum("k,kij->ij", np.asarray(steady.multipliers), H)
+    J[:n, n:], J[n:, :n] = -g.T, g
     return J
 
 

@@ -399,6 +399,7 @@ class _Newton:
         self.updates = updates
         self.second_order = second_order  # curvature term, constraint correction
         self.hessians = None  # d2(A, V)/da2 at the last fresh Jacobian (second order)
+        self.chord = None  # a reused Jacobian (a neighbour's, or Broyden-updated)
         self.matrix = None  # M of the last step (the neighbour's at the start)
         self.step_size = 0.0
         self.fresh = False  # whether the last step used a freshly differenced Jacobian

@@ -19,7 +19,8 @@ TOML file::
     [solver]               # velocity-solve tolerances of "run" points
     [run]                  # the run settings of "run" points (t_end, save_every, ...)
     [task]                 # task options: modes ("symmetric" | "general") for stability,
-                           #   jacobian, max_iterations, xtol for critical; for branch:
+                           #   jacobian, max_iterations, xtol, coarse (true: locate at
+                           #   N = 4 first, the default) for critical; for branch:
                            #   parameter ("lam" | "chi" | "v", not in [grid]) and values
                            #   ("1:9", "1:9:0.5" or a list), past_fold, xtol; for neutral:
                            #   chi ("0.1:10" with points, or a list), xtol, type_tol,
@@ -115,8 +116,9 @@ def _stability(physics: Physics, disc: Discretisation, options: dict, settings: 
 
 def _critical(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     keys = ("jacobian", "max_iterations", "xtol", "lam0", "orientation")
+    coarse = "auto" if options.get("coarse", True) else None
     c = critical_lambda(physics, disc, modes=options.get("modes", _default_modes(options)),
-                        **{k: options[k] for k in keys if k in options})  # fmt: skip
+                        coarse=coarse, **{k: options[k] for k in keys if k in options})  # fmt: skip
     return critical_summary(c, physics, disc)
 
 
@@ -224,7 +226,8 @@ TASKS = {
         _stability, GRID_KEYS, ("jacobian", "max_iterations", "modes", "orientation")
     ),
     "critical": Task(
-        _critical, ("v", "chi"), ("jacobian", "max_iterations", "xtol", "lam0", "orientation")
+        _critical, ("v", "chi"),
+        ("jacobian", "max_iterations", "xtol", "lam0", "orientation", "coarse"),
     ),
     "branch": Task(
         _branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold", "ellipsoid")
@@ -243,7 +246,7 @@ _TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
                "values": (str, list), "past_fold": (int,), "chi": (str, list),
                "points": (int,), "type_tol": (int, float),
                "locate_type_change": (bool,), "ellipsoid": (bool,), "psi": (str, list),
-               "lams": (str, list), "orientation": (str,)}  # fmt: skip
+               "lams": (str, list), "orientation": (str,), "coarse": (bool,)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
