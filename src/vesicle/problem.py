@@ -151,13 +151,15 @@ class SteadyProblem:
             operators=self._operators(shape),
         )
 
+    def _solver(self, shape: Shape) -> VelocityTensionSolver:
+        """The velocity-tension solver of ``shape`` on its kept layer potentials."""
+        return VelocityTensionSolver(shape, self.physics, self.tolerances, self._operators(shape),
+                                     discretisation=self.discretisation)  # fmt: skip
+
     def factorise(self, shape: Shape) -> FactorisedSystem:
         """The factorised velocity-tension system of ``shape`` (linearised Jacobians), kept as
         the preconditioner of the next solves (:meth:`solve`)."""
-        solver = VelocityTensionSolver(shape, self.physics, self.tolerances,
-                                       self._operators(shape),
-                                       discretisation=self.discretisation)  # fmt: skip
-        system = FactorisedSystem(solver)
+        system = FactorisedSystem(self._solver(shape))
         object.__setattr__(self, "_kept_system", (self._key(shape), system))
         return system
 
@@ -172,9 +174,7 @@ class SteadyProblem:
         """The solve of ``shape`` preconditioned by the kept ``system``, or ``None`` (logged)
         where GMRES misses its tolerance (a shape too far from the system's): the nested
         solve then takes over."""
-        solver = VelocityTensionSolver(shape, self.physics, self.tolerances,
-                                       self._operators(shape),
-                                       discretisation=self.discretisation)  # fmt: skip
+        solver = self._solver(shape)
         if solver.is_sphere:
             return None
         result = preconditioned_solve(solver, system, rtol=PRECONDITIONED_RTOL)

@@ -329,12 +329,12 @@ def steady_tank_treading(
         max_iterations = 30 if updates == "broyden" else 12
     if int(max_iterations) < 1:
         raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
+    if constraints not in CONSTRAINTS:
+        raise ValueError(f"constraints must be one of {CONSTRAINTS}, got {constraints!r}")
     problem = SteadyProblem(
         physics, discretisation, solver_tolerances or NEWTON_TOLERANCES, jacobian_method=jacobian,
         preconditioned=preconditioned,
     )  # fmt: skip
-    if constraints not in CONSTRAINTS:
-        raise ValueError(f"constraints must be one of {CONSTRAINTS}, got {constraints!r}")
     newton = _Newton(problem, executor, chord_contraction, progress, updates,
                      constraints == "second-order")  # fmt: skip
     newton.start(initial)
@@ -400,7 +400,7 @@ class _Newton:
         self.second_order = second_order  # curvature term, constraint correction
         self.hessians = None  # d2(A, V)/da2 at the last fresh Jacobian (second order)
         self.chord = None  # a reused Jacobian (a neighbour's, or Broyden-updated)
-        self.matrix = None  # M of the last step (the neighbour's at the start)
+        self.matrix = None  # the Newton matrix of the last step
         self.step_size = 0.0
         self.fresh = False  # whether the last step used a freshly differenced Jacobian
         self.candidate = None  # that Jacobian, until the step's contraction is known
@@ -429,7 +429,6 @@ class _Newton:
                 and initial.discretisation.grid == P.discretisation.grid
             )
             self.chord = initial.jacobian if same else None
-            self.matrix = self.chord
         elif isinstance(initial, Shape):
             self.a = P.coefficients_of(initial)
         else:
