@@ -23,10 +23,21 @@ sys.path.insert(0, str(HERE))
 
 
 def main(argv: list[str]) -> None:
-    names = argv or sorted(p.stem for p in HERE.glob("bench_*.py"))
+    available = sorted(p.stem for p in HERE.glob("bench_*.py"))
+    if any(a in ("-h", "--help") for a in argv):
+        print(__doc__.strip())
+        print("\nbenchmarks: " + ", ".join(n.removeprefix("bench_") for n in available))
+        return
+    names = [a if a.startswith("bench_") else f"bench_{a}" for a in argv] or available
+    unknown = [n for n in names if n not in available]
+    if unknown:
+        raise SystemExit(
+            f"unknown benchmark(s) {', '.join(unknown)}; choose from "
+            + ", ".join(n.removeprefix("bench_") for n in available)
+        )
     results = {}
     for name in names:
-        module = importlib.import_module(name if name.startswith("bench_") else f"bench_{name}")
+        module = importlib.import_module(name)
         print(f"== {module.__name__}: {module.__doc__.strip().splitlines()[0]}")
         results[module.__name__] = module.run()
     out = HERE / "results"

@@ -17,6 +17,7 @@ rotated nodes into rows of the layer-potential operators in coefficient space (a
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -30,6 +31,22 @@ from ..sphere.rotation import rotation_matrix, y_rotation
 from ..sphere.transforms import real_matmul
 
 __all__ = ["RingGeometry", "SingularQuadrature", "singular_quadrature"]
+
+#: Per-thread scratch arrays of the pull-back (assembly runs rings in threads).
+_SCRATCH = threading.local()
+
+
+def _scratch(*shapes: tuple[int, ...]) -> list[np.ndarray]:
+    """This thread's scratch arrays of the given shapes, reused between calls of equal shapes.
+
+    Writing the pull-back's intermediate products into arrays that stay mapped (``out=``) saves
+    the page faults of fresh ones: measured pair by pair over 100–400 calls, 0.98x the time
+    of fresh arrays at 32x64 (within noise) and 0.89x at 48x96.  A thread keeps one set
+    (18 MB at 32x64, 63 MB at 48x96), freed with the thread."""
+    if getattr(_SCRATCH, "shapes", None) != shapes:
+        _SCRATCH.arrays = [np.empty(shape) for shape in shapes]
+        _SCRATCH.shapes = shapes
+    return _SCRATCH.arrays
 
 
 @dataclass(frozen=True, eq=False)
@@ -241,8 +258,10 @@ class SingularQuadrature:
         n = self.lmax + 1
         vals = v.reshape(self.n_rot_phi, self.n_rot, b * k)
         transform = transform or self.pull_back_transform
+        F_out, c = _scratch((2 * n, self.n_rot * b * k), (n, n, b * k))
         if transform == "gemm":
-            F = (self._dft_rows @ vals.reshape(self.n_rot_phi, -1)).reshape(2, n, self.n_rot, -1)
+            F = np.matmul(self._dft_rows, vals.reshape(self.n_rot_phi, -1), out=F_out)
+            F = F.reshape(2, n, self.n_rot, -1)
             real_imag = (F[0], F[1])
         elif transform == "fft":
             if n <= self.n_rot_phi // 2 + 1:
@@ -260,13 +279,13 @@ class SingularQuadrature:
         plusT, minusT = self.wigner[2:]
         parts = []
         for part, wig in zip(real_imag, (plusT[i], minusT[i]), strict=True):
-            c = np.empty((n, n, b * k))  # (l, m', B); only m' <= l is set and read
+            # c: (l, m', B), only m' <= l is set and read
             for m in range(n):
-                c[m:, m] = adj[m, m:] @ part[m]
+                np.matmul(adj[m, m:], part[m], out=c[m:, m])
             packed = np.empty((n * (n + 1) // 2, b * k))
             for l in range(n):
-                start = l * (l + 1) // 2
-                packed[start : start + l + 1] = wig[l, : l + 1, : l + 1] @ c[l, : l + 1]
+                rows = packed[l * (l + 1) // 2 : (l + 1) * (l + 2) // 2]
+                np.matmul(wig[l, : l + 1, : l + 1], c[l, : l + 1], out=rows)
             parts.append(packed.reshape(-1, b, k))
         return parts[0], parts[1]
 
