@@ -174,3 +174,28 @@ def test_branch_figures_with_the_fold_approach(tmp_path):
     assert r.exit_code == 0, r.output
     for name in ("branch_shape.png", "branch_omega.png"):
         assert (tmp_path / "fig" / name).read_bytes()[:4] == b"\x89PNG"
+
+
+@pytest.mark.slow
+def test_the_fold_is_the_zero_of_the_curvature_form_of_the_stability_operator():
+    """v = 0.85, chi = 1, N = 4 on 16 x 32, where the multipliers are not small (0.0057,
+    -0.0140): the branch turns (lam extremal, located by pseudo-arclength) at lam = 4.09497
+    (measured 2026-12-03). There the operator with the multipliers' curvature,
+    Q^T (M - mu . H) Q, has a zero eigenvalue (a singular bordered Jacobian is a zero of it:
+    the fold's defining property, SPEC §16): its leading growth rate changes sign across the
+    fold; SPEC §9's Q^T M Q has crossed zero already, near lam = 4.074 (reported as the
+    branch's first saddle-node), and is 0.04-0.05 at the fold."""
+    from vesicle.stability import stability
+
+    p, d = vs.Physics(v=0.85, chi=1.0), vs.Discretisation(16, 4)
+    b = branch(p, d, "lam", [3.9, 4.0, 4.05, 4.07, 4.09, 4.1], past_fold=3)
+    folds = [s for s in b.special_points if s.kind == "saddle-node" and s.located]
+    assert len(folds) == 2
+    crossing, turn = sorted(s.value for s in folds)
+    assert crossing == pytest.approx(4.0739, abs=2e-3) and turn == pytest.approx(4.09497, abs=1e-3)
+    i = int(np.argmax([q.physics.lam for q in b.points]))  # the last point before the turn
+    before, after = b.points[i - 1], b.points[i + 1]
+    w_before = stability(before.steady, curvature=True).most_unstable[1]
+    w_after = stability(after.steady, curvature=True).most_unstable[1]
+    assert w_before < 0 < w_after and max(-w_before, w_after) < 5e-3
+    assert before.most_unstable[1] > 0.03  # SPEC §9's operator: unstable before the turn

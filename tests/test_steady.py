@@ -99,15 +99,22 @@ def test_constraint_hessians_are_second_differences_of_area_and_volume(steady):
             assert H[k, i, j] == pytest.approx(second, rel=1e-4, abs=1e-5 * np.abs(H[k]).max())
 
 
-def test_multiplier_curvature_restores_quadratic_convergence():
+@pytest.fixture(scope="module")
+def state_v085():
+    """v = 0.85, chi = 1, lam = 3.9 (N = 4, 16 x 32), reached by a branch from lam = 3: a
+    state whose multipliers are not small."""
+    d = vs.Discretisation(16, 4)
+    b = vs.branch(vs.Physics(v=0.85, chi=1.0), d, "lam", [3.0, 3.5, 3.9], locate=False)
+    return b.points[-1].steady
+
+
+def test_multiplier_curvature_restores_quadratic_convergence(state_v085):
     """v = 0.85, chi = 1, lam = 3.9 (N = 4, 16 x 32), where the multipliers are not small
     ((0.0056, -0.0137); |mu . H| = 0.51 against M's singular values down to 1e-3): from the
     state perturbed by 1e-3, with a fresh Jacobian every step, Newton on M alone contracts by
     0.49 an iteration (measured: 2.0e-2, 4.4e-4, 9.5e-5, 4.8e-5, 2.3e-5, ...); with the
     curvature term -mu . H it converges quadratically (2.0e-2, 4.4e-4, 5.8e-6, 3.4e-9)."""
-    d = vs.Discretisation(16, 4)
-    b = vs.branch(vs.Physics(v=0.85, chi=1.0), d, "lam", [3.0, 3.5, 3.9], locate=False)
-    r = b.points[-1].steady
+    d, r = state_v085.discretisation, state_v085
     start = r.a + 1e-3 * np.random.default_rng(0).standard_normal(r.a.size)
     new = steady_tank_treading(r.physics, d, initial=start, updates="none")
     h = new.residual_history
@@ -118,6 +125,32 @@ def test_multiplier_curvature_restores_quadratic_convergence():
                              constraints="first-order")  # fmt: skip
     with pytest.raises(ValueError, match="constraints"):
         steady_tank_treading(r.physics, d, constraints="exact")
+
+
+def test_stability_with_the_multipliers_curvature(state_v085):
+    """``curvature=True``: the eigenvalues of Q^T (M - mu . H) Q are the finite eigenvalues of
+    the bordered pencil [[M - mu . H, -g^T], [g, 0]] x = s diag(I, 0) x (the linearisation of
+    the dynamics held on the constraints, computed here without Q); the default is SPEC §9's
+    Q^T M Q, which at v = 0.85 (multipliers (0.0056, -0.0137) at N = 4) differs from it by
+    far more than rounding."""
+    import scipy.linalg
+
+    r = state_v085
+    plain, curved = stability(r), stability(r, curvature=True)
+    np.testing.assert_array_equal(stability(r, curvature=False).omega, plain.omega)
+    H = r.problem.constraint_hessians(r.a)
+    Mc = r.jacobian - np.einsum("k,kij->ij", np.asarray(r.multipliers), H)
+    n, g = Mc.shape[0], r.gradients
+    A = np.block([[Mc, -g.T], [g, np.zeros((2, 2))]])
+    B = np.diag(np.r_[np.ones(n), 0.0, 0.0])
+    s = scipy.linalg.eigvals(A, B)
+    s = s[np.isfinite(s)]
+    s = s[np.argsort(-s.real)]
+    ours = curved.omega[:, 1] - 1j * curved.omega[:, 0]  # mu = omega_I - i omega_R
+    assert len(s) == len(ours) == n - 2
+    np.testing.assert_allclose(np.sort_complex(ours), np.sort_complex(s), atol=1e-8)
+    # the two operators' leading (real) growth rates differ by O(|mu . H|), here about 0.05
+    assert abs(curved.most_unstable[1] - plain.most_unstable[1]) > 1e-2
 
 
 def test_a_result_at_a_converged_state(steady):
