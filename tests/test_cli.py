@@ -197,6 +197,7 @@ def test_tt_json_with_stability():
         "omega_R",
         "omega_I",
         "eigenvalues",
+        "curvature_shift",
     ):
         assert key in out
     assert out["residual"] < 1e-8

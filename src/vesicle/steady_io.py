@@ -108,7 +108,8 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
         w_r, w_i = stability.most_unstable
         out.update({"modes": stability.basis, "omega_R": w_r, "omega_I": w_i,
                     "n_unstable": int(np.sum(stability.omega[:, 1] > 0)),
-                    "eigenvalues": stability.omega.tolist()})  # fmt: skip
+                    "eigenvalues": stability.omega.tolist(),
+                    "curvature_shift": float(stability.curvature_shift)})  # fmt: skip
     return out
 
 
