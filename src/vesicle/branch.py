@@ -90,6 +90,9 @@ class BranchPoint:
     steady: SteadyResult
     omega: np.ndarray  # (k, 2) leading (omega_R, omega_I), most unstable first
     requested: bool  # one of the values asked for (else a refinement step)
+    #: :attr:`vesicle.stability.StabilityResult.curvature_shift` of this state: how much the
+    #: leading growth rate depends on the multipliers (large where the resolution is too low)
+    curvature_shift: float = 0.0
 
     @property
     def n_unstable(self) -> int:
@@ -118,6 +121,7 @@ class BranchPoint:
             "omega_R": w_r, "omega_I": w_i,
             "eigenvalues": self.omega.tolist(),
             "n_unstable": self.n_unstable, "oscillatory": self.oscillatory,
+            "curvature_shift": self.curvature_shift,
             "newton_iterations": r.newton_iterations, "solves": r.solves,
             "residual": r.residual, "requested": self.requested,
         }  # fmt: skip
@@ -256,7 +260,8 @@ def approach_exponent(values, growth, critical: float | None = None) -> dict:
 
 def _analyse(steady: SteadyResult, requested: bool, modes: str = "symmetric") -> BranchPoint:
     s: StabilityResult = stability(steady, modes=modes)
-    return BranchPoint(steady.physics, steady, s.omega[:LEADING].copy(), requested)
+    return BranchPoint(steady.physics, steady, s.omega[:LEADING].copy(), requested,
+                       float(s.curvature_shift))  # fmt: skip
 
 
 class _Tracer:

@@ -68,11 +68,15 @@ class NeutralPoint:
     #: a stable state on the branch at least half a margin below lambda_c where there is one
     #: (else the nearest below): where the next chi starts, and the state `--states` writes
     start: SteadyResult | None = field(default=None, repr=False, compare=False)
+    #: the stable state's ``curvature_shift`` (:mod:`vesicle.stability`): where it is above
+    #: 1e-2 the resolution is too low for the multipliers to be negligible
+    curvature_shift: float = 0.0
 
     def to_dict(self) -> dict:
         return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
                 "omega_R": self.omega_R, "psi": self.psi, "D": self.D,
                 "located": self.located, "seconds": self.seconds,
+                "curvature_shift": self.curvature_shift,
                 **({"bracket": list(self.bracket)} if self.bracket else {})}  # fmt: skip
 
 
@@ -214,7 +218,7 @@ class _Tracer:
                          float(nearest.steady.psi), float(nearest.steady.D),
                          bool(special.located), time.perf_counter() - t0,
                          None if special.located else tuple(map(float, special.bracket)),
-                         start_from)  # fmt: skip
+                         start_from, nearest.curvature_shift)  # fmt: skip
         log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c, kind,
                  p.omega_R)  # fmt: skip
         if self.progress is not None:
