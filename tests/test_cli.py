@@ -328,3 +328,24 @@ def test_every_option_has_help_and_its_default_is_shown():
     help_text = CliRunner().invoke(group, ["run", "--help"]).output
     assert "'tt'" in help_text and "steady-state file" in help_text
     assert "-v," not in CliRunner().invoke(group, ["--help"]).output  # --v is the reduced volume
+
+
+def test_info_records_of_other_libraries_stay_off_the_terminal():
+    """Dask's scheduler logs at info level; its records propagate to the root's handler past
+    the root's level, so the command line's handler filters by level itself (a fresh process:
+    the test runner's own handlers would hide this)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import logging\n"
+        "from vesicle.cli.base import configure_logging\n"
+        "configure_logging(logging.WARNING)\n"
+        "noisy = logging.getLogger('distributed.scheduler')\n"
+        "noisy.setLevel(logging.INFO)\n"
+        "noisy.info('scheduler noise')\n"
+        "logging.getLogger('vesicle.x').warning('kept')\n"
+    )
+    err = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stderr  # fmt: skip
+    assert "kept" in err and "scheduler noise" not in err

@@ -43,6 +43,11 @@ log = logging.getLogger(__name__)
 #: at N = 8 1.5e-3; v = 0.85 at N = 4 on 16x32 0.045 at chi = 1 and 0.106 at chi = 0.1).
 CURVATURE_WARNING = 1e-2
 
+#: Resolutions ``(degree, grid, modes)`` already warned about in this process: a branch or a
+#: sweep at a low degree would repeat the same warning at every point, so later ones are logged
+#: at info level (``--verbose``); every result still carries its ``curvature_shift``.
+_WARNED: set[tuple[int, int, str]] = set()
+
 
 @dataclass(frozen=True, eq=False)
 class StabilityResult:
@@ -109,11 +114,20 @@ def stability(
     mu, vec = spectrum(curved if curvature else M)
     shift = float(spectrum(M if curvature else curved)[0].real.max() - mu.real.max())
     if abs(shift) > CURVATURE_WARNING:
-        log.warning(
-            "the multipliers (%.2g, %.2g) are not small at this resolution: the leading growth "
-            "rate %s the multipliers' curvature differs by %.3g (SPEC §9's Q^T M Q against the "
-            "linearisation held on the constraints; see docs/continuation.md): raise the degree",
-            *result.multipliers, "with" if not curvature else "without", shift,
+        disc = result.discretisation
+        seen = (disc.degree, disc.grid, modes)
+        level = logging.INFO if seen in _WARNED else logging.WARNING
+        _WARNED.add(seen)
+        log.log(
+            level,
+            "the multipliers (%.2g, %.2g) are not small at this resolution (N = %d, %dx%d): the "
+            "leading growth rate %s the multipliers' curvature differs by %.3g (SPEC §9's "
+            "Q^T M Q against the linearisation held on the constraints; see "
+            "docs/continuation.md): raise the degree%s",
+            *result.multipliers, disc.degree, disc.grid, 2 * disc.grid,
+            "with" if not curvature else "without", shift,
+            "" if level == logging.INFO else " (said once per resolution; every result "
+            "carries its curvature_shift)",
         )  # fmt: skip
     omega = np.stack([-mu.imag, mu.real], axis=1)
     # most unstable first; a conjugate pair (equal omega_I but for rounding) with -omega_R

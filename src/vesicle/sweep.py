@@ -636,8 +636,11 @@ def run_sweep(
                 progress({"key": key, "status": entry["status"], **store.status(config),
                           "total": total, "seconds": entry.get("seconds")})  # fmt: skip
     finally:
+        # cancel only what is still pending (Ctrl-C, an error): cancelling finished futures
+        # sends the scheduler messages that it answers after the client has closed
         for future in futures:
-            future.cancel()
+            if not future.done():
+                future.cancel()
         client.close()
         if cluster is not None:
             cluster.close()

@@ -35,10 +35,24 @@ def main(verbose: int) -> None:
     per unit of time; 155 s at lambda = 1); `neutral` at N = 4 on 16 x 32 about 2.5 min for
     chi = 0.2, 1, 3.
     """
-    level = logging.WARNING - 10 * min(verbose, 2)
+    configure_logging(logging.WARNING - 10 * min(verbose, 2))
+
+
+def configure_logging(level: int) -> logging.Handler | None:
+    """Log records of ``level`` and above to stderr, whichever logger they come from.
+
+    The level is set on the handler too: records that other libraries' loggers emit below it
+    (Dask's scheduler and nanny log at info level by default) propagate to the root's handler
+    past the root logger's own level, and would otherwise reach the terminal."""
+    root = logging.getLogger()
+    if root.handlers:  # configured already (an embedding program, a test runner): keep it
+        return None
     logging.basicConfig(
         level=level, stream=sys.stderr, format="%(levelname)s %(name)s: %(message)s"
     )
+    handler = root.handlers[-1]
+    handler.setLevel(level)
+    return handler
 
 
 def command_line(ctx: click.Context) -> str:
