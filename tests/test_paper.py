@@ -77,3 +77,33 @@ def test_tilted_starts_item_writes_its_orbits_and_figures(tmp_path):
     build_report(tmp_path, quick=True, items=[item], options={**options, "t_end": 0.7})
     t = read_run(run_file).series["t"]
     assert t[-1] == pytest.approx(0.7) and t[0] == 0.0
+
+
+def test_runs_are_drawn_on_the_neutral_curves_of_their_degree(tmp_path):
+    """Figure 12's runs on Figure 7's phase diagrams (the paper's TR and TU points): drawn when
+    fig7 has run and has a curve at the runs' degree; nothing otherwise."""
+    from vesicle.paper import _regimes_on_curves
+    from vesicle.sweep import SweepStore
+
+    folder = tmp_path / "fig12"
+    folder.mkdir()
+    runs = folder / "runs.h5"
+    records = {f"p{i}": {"status": "done", "physics": {"v": 0.95, "chi": chi, "lam": lam},
+                         "result": {"regime": regime, "period": 2.0}, "seconds": 1.0}
+               for i, (chi, lam, regime) in enumerate([(6.0, 9.0, "TR"), (6.0, 20.0, "TU")])}
+    SweepStore(runs, "f", "[discretisation]\ndegree = 4\ngrid = 16\n", "run", records).write()
+    assert _regimes_on_curves(folder, "fig7", [str(runs)]) == []  # fig7 has not run
+    (tmp_path / "fig7").mkdir()
+    points = [{"chi": c, "lambda_c": 8 + 0.1 * c, "bifurcation": "hopf", "omega_R": 0.1,
+               "psi": 0.1, "D": 0.2} for c in (0.3, 1, 5)]  # fmt: skip
+    curve = {"v": 0.95, "degree": 8, "grid": 32, "points": points, "type_change": None}
+    neutral = tmp_path / "fig7" / "neutral.h5"
+    SweepStore(neutral, "f", "", "neutral", {"c": {"status": "done", "physics": {"v": 0.95},
+                                                  "result": curve}}).write()  # fmt: skip
+    assert _regimes_on_curves(folder, "fig7", [str(runs)]) == []  # another degree
+    curve["degree"] = 4
+    SweepStore(neutral, "f", "", "neutral", {"c": {"status": "done", "physics": {"v": 0.95},
+                                                  "result": curve}}).write()  # fmt: skip
+    drawn = _regimes_on_curves(folder, "fig7", [str(runs)])
+    assert [p.rsplit("/", 1)[1] for p in drawn] == ["phase_diagram.png", "phase_SLambda.png"]
+    assert all(open(p, "rb").read(4) == b"\x89PNG" for p in drawn)

@@ -19,6 +19,7 @@ import html
 import json
 import logging
 import time
+import tomllib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -87,25 +88,53 @@ def _table1(folder: Path, quick: bool, options: dict) -> dict:
             "parameters": {"cases": cases, "degrees": degrees, "grid": grid}}  # fmt: skip
 
 
-def _study_item(*names: str) -> Callable[[Path, bool, dict], dict]:
-    """An item drawn by the studies ``names`` (vesicle.study), run into the item's folder."""
+def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, bool, dict], dict]:
+    """An item drawn by the studies ``names`` (vesicle.study), run into the item's folder.
+
+    ``regimes_on``: another item with neutral curves (``fig7``); when it has run, the studies'
+    time-dependent runs are drawn on its phase diagrams by the regime each run's analysis found
+    (the TR and TU points of the paper's Figure 7), in ``folder/phase/``."""
 
     def compute(folder: Path, quick: bool, options: dict) -> dict:
         from .study import run_study
 
         out = {"figures": [], "tables": [], "comparisons": [], "parameters": {}}
+        stores = []
         for name in names:
             r = run_study(name, folder, quick=quick, workers=options.get("workers"),
                           scheduler=options.get("scheduler"))  # fmt: skip
+            stores.append(r["store"])
             out["figures"].append(r["figure"])
             out["tables"].append(r["table"])
             out["parameters"][name] = r["config"]
             if r["status"]["failed"]:
                 failed = r["status"]["failed"]
                 out.setdefault("failures", []).append(f"{name}: {failed} point(s) failed")
+        if regimes_on is not None:
+            out["figures"] += _regimes_on_curves(folder, regimes_on, stores)
         return out
 
     return compute
+
+
+def _regimes_on_curves(folder: Path, item: str, stores: list[str]) -> list[str]:
+    """The runs of the sweep ``stores`` on the phase diagrams of ``item``'s neutral curves at
+    the runs' degree (none when that item has not run)."""
+    from .phase_plots import plot_neutral, runs_from_store
+    from .sweep import SweepStore
+
+    other = folder.parent / item / "neutral.h5"
+    runs = [r for path in stores for r in runs_from_store(path)]
+    degrees = {tomllib.loads(SweepStore.read(path).config_text)["discretisation"]["degree"]
+               for path in stores}  # fmt: skip
+    if not other.exists() or not runs:
+        return []
+    curves = [r["result"] for r in SweepStore.read(other).records.values()
+              if r.get("result") and r["result"].get("points")
+              and r["result"]["degree"] in degrees]  # fmt: skip
+    if not curves:
+        return []
+    return [str(p) for p in plot_neutral(curves, folder / "phase", runs=runs)]
 
 
 def _fig_spectrum(folder: Path, quick: bool, options: dict) -> dict:
@@ -354,8 +383,9 @@ ITEMS: list[Item] = [
          _fig9),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
          _study_item("orbits", "stress-time")),
-    Item("fig12", "Figure 12", "periods of TR and TU against lambda",
-         _study_item("periods-high-shear", "periods-low-shear")),
+    Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
+         "on Figure 7's neutral curves)",
+         _study_item("periods-high-shear", "periods-low-shear", regimes_on="fig7")),
     Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda", _study_item("stress-lambda")),
     Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi")),
     Item(
