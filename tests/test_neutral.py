@@ -186,3 +186,13 @@ def test_phase_diagrams_with_classified_runs(tmp_path):
     SweepStore(tmp_path / "tt.h5", "f", "", "tt", {}).write()
     r = CliRunner().invoke(main, ["plot", str(curve), "--runs", str(tmp_path / "tt.h5")])
     assert r.exit_code != 0 and "sweep of runs" in r.output
+
+
+def test_curves_of_one_volume_share_a_colour():
+    """The dashed vorticity-aligned curve of a v is drawn in the colour of the in-plane curve of
+    the same v (the colours used to follow the order of the curves)."""
+    from vesicle.phase_plots import _colors
+
+    curves = [{"v": 0.95, "orientation": "vorticity"}, {"v": 0.90}, {"v": 0.95}, {"v": 0.98}]
+    colors = _colors(curves)
+    assert colors == {0.98: "C0", 0.95: "C1", 0.90: "C2"}

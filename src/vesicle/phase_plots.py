@@ -81,6 +81,13 @@ def _label(curve: dict) -> str:
     return label + (", vorticity-aligned" if curve.get("orientation") == "vorticity" else "")
 
 
+def _colors(curves: list[dict]) -> dict[float, str]:
+    """One colour per reduced volume (largest v first), so that a curve of the vorticity-aligned
+    branch takes the colour of the in-plane curve of the same v."""
+    volumes = sorted({c["v"] for c in curves}, reverse=True)
+    return {v: f"C{k}" for k, v in enumerate(volumes)}
+
+
 def _style(curve: dict) -> str:
     """Dashed: the vorticity-aligned branch (stable above its curve); solid: the in-plane one."""
     return "--" if curve.get("orientation") == "vorticity" else "-"
@@ -95,8 +102,9 @@ def _outside_legend(fig, ax) -> None:
 def _chi_lambda(curves, runs, outdir, dpi) -> Path:
     fig = _figure((9.0, 4.6))
     ax = fig.add_subplot()
-    for k, curve in enumerate(curves):
-        color = f"C{k}"
+    colors = _colors(curves)
+    for curve in curves:
+        color = colors[curve["v"]]
         pts = sorted(curve["points"], key=lambda p: p["chi"])
         chi = np.array([p["chi"] for p in pts])
         lam = np.array([p["lambda_c"] for p in pts])
@@ -132,8 +140,9 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
 def _s_lambda(curves, runs, outdir, dpi) -> Path:
     fig = _figure((9.0, 4.6))
     ax = fig.add_subplot()
-    for k, curve in enumerate(curves):
-        color = f"C{k}"
+    colors = _colors(curves)
+    for curve in curves:
+        color = colors[curve["v"]]
         pts = sorted(curve["points"], key=lambda p: p["chi"])
         sl = np.array([lebedev_parameters(curve["v"], p["chi"], p["lambda_c"]) for p in pts])
         hopf = np.array([p["bifurcation"] == "hopf" for p in pts])
