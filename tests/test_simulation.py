@@ -388,3 +388,26 @@ def test_a_run_stopped_at_a_steady_state_is_tt_and_says_why():
     summary = summarize(run)
     assert run.checkpoint["stopped"] == "steady" and summary["stopped"] == "steady"
     assert summary["regime"] == "TT" and summary["t_final"] < 1.0
+
+
+def test_only_settled_periods_are_counted():
+    """A TR oscillation growing out of its start (amplitude 0.3 (1 - exp(-t/4)), period 2,
+    saved every 0.1): its early periods differ in swing by more than 2 % and are not counted,
+    the late ones are (the swing's deficit exp(-t/4) is below 2 % from t = 15.6: about the last
+    12 periods); a steady tumbling's half turns all count; a swing that keeps growing never
+    settles."""
+    from vesicle.analysis import settled_periods
+
+    t = np.arange(0.0, 40.0, 0.1)
+    psi = 0.2 + 0.3 * (1 - np.exp(-t / 4)) * np.cos(np.pi * t)
+    assert settled_periods(t[t <= 8], psi[t <= 8]) == 0
+    late = settled_periods(t, psi)
+    assert 10 <= late <= 13  # the periods from t of about 16 to 39
+    growing = 0.2 + 0.01 * np.exp(0.1 * t) * np.cos(np.pi * t)
+    assert settled_periods(t, growing) == 0
+    # Keller-Skalak-like tumbling: dpsi/dt = -(1 - 0.5 cos 2 psi), half turn pi / sqrt(0.75)
+    tt = np.arange(0.0, 30.0, 0.05)
+    angle = -np.arctan(np.sqrt(3.0) * np.tan(np.sqrt(0.75) * tt))  # the exact solution
+    wrapped = (angle + np.pi / 2) % np.pi - np.pi / 2
+    # 8 passages through -pi/2 in t < 30: 7 half turns between them, all equal
+    assert settled_periods(tt, wrapped) == 7

@@ -30,6 +30,7 @@ __all__ = [
     "local_minima",
     "ray_radius",
     "recentered",
+    "settled_periods",
     "summarize",
 ]
 
@@ -268,6 +269,42 @@ def classify_regime(
         detail = f"sustained oscillation of psi (x{decay:.2f} over the tail)"
         return Regime("TR", period, tm, detail)
     return Regime("undetermined", None, np.array([]), "psi still drifting; run longer")
+
+
+#: Relative spread of the trailing periods (and of their psi swings, TR) within which a run's
+#: oscillation counts as settled on its limit cycle (:func:`settled_periods`).
+SETTLE_TOL = 0.02
+
+
+def settled_periods(t: np.ndarray, psi: np.ndarray, tol: float = SETTLE_TOL) -> int:
+    """How many of the last whole periods of psi (TR: between refined minima; TU: half turns)
+    agree with each other: each period's length, and in TR the swing of psi over it, within
+    ``tol`` of the mean of those periods.  A start-up transient (a TR oscillation still growing
+    from a TT-like start, a tumbling that is still speeding up) is not counted, so a run stopped
+    after ``n`` settled periods has ``n`` periods on its limit cycle to average over.  The count
+    is 0 or at least 2: a single period has nothing to agree with."""
+    t, psi = np.asarray(t, float), np.asarray(psi, float)
+    if t.size < 5:
+        return 0
+    if np.any(np.abs(np.diff(psi)) > 0.75 * np.pi):
+        marks = half_turn_times(t, psi)
+        swings = None
+    else:
+        minima = local_minima(psi)
+        marks = refined_minima(t, psi, minima)
+        swings = [np.ptp(psi[(t >= a) & (t <= b)]) for a, b in pairwise(marks)]
+    lengths = np.diff(marks)
+    count = 0
+    for k in range(2, lengths.size + 1):  # the last k periods (one alone proves nothing)
+        tail = lengths[-k:]
+        ok = np.ptp(tail) <= tol * np.mean(tail)
+        if ok and swings is not None:
+            sw = np.asarray(swings[-k:])
+            ok = np.mean(sw) > 0 and np.ptp(sw) <= tol * np.mean(sw)
+        if not ok:
+            break
+        count = k
+    return count
 
 
 @dataclass(frozen=True)

@@ -123,7 +123,7 @@ RUN_DEFAULTS = {
     "drift_tol": 1e-5,  # relative area/volume drift that triggers a correction
     "recenter_threshold": 1e-4,
     "steady_tol": 0.0,  # stop when max |dr/dt| falls below this (0: never)
-    "periods": 0,  # stop after this many psi periods (0: never)
+    "periods": 0,  # stop after this many settled psi periods (0: never; analysis.settled_periods)
     "split_stress": False,  # also store S^B and S^V at saved steps (two more solves each)
     "save_fields": True,  # store the tension and the membrane velocity on the grid
     "checkpoint_every": 60.0,  # wall seconds between checkpoints

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .analysis import classify_regime, diagnose, summarize
+from .analysis import SETTLE_TOL, classify_regime, diagnose, settled_periods, summarize
 from .dynamics import Evaluation, Integrator, RunParameters, StepState, initial_shape, post_step
 from .io import OPTIONAL_SERIES, SERIES, RunData, series_dtype, series_shape, write_run
 from .solver import solve_flow
@@ -281,8 +281,13 @@ def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> st
         log.info("steady state: max |dr/dt| coefficient below %g", params.steady_tol)
         return "steady"
     if params.periods > 0 and run.n_saved >= 5:
+        # count only periods on the limit cycle: a TR oscillation still growing out of the
+        # start, or a tumbling still speeding up, is the transient (docs/dynamics.md)
         regime = classify_regime(run.series["t"], run.series["psi"], run.series["axes"], tail=1.0)
-        if regime.minima.size > params.periods:
-            log.info("%d periods of psi completed", params.periods)
+        settled = 0 if regime.name == "out-of-plane" else settled_periods(run.series["t"],
+                                                                          run.series["psi"])
+        if settled >= params.periods:
+            log.info("%d settled periods of psi completed (lengths and swings within %g)",
+                     params.periods, SETTLE_TOL)  # fmt: skip
             return "periods"
     return ""

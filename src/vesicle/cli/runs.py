@@ -276,7 +276,11 @@ def _check_writable(out: Path, overwrite: bool) -> None:
     help="Stop once max |dr/dt| falls below this (0: never).",
 )
 @click.option(
-    "--periods", type=int, default=_default("periods"), help="Stop after this many psi periods."
+    "--periods",
+    type=int,
+    default=_default("periods"),
+    help="Stop after this many settled psi periods (the last ones agreeing in length, and in "
+    "TR in swing, to 2 %: the start-up transient is not counted; at least 2).",
 )
 @click.option(
     "--split-stress",
