@@ -120,6 +120,23 @@ def test_a_hard_start_is_reached_by_continuation():
     assert vs.stability(r).most_unstable[1] == pytest.approx(-0.0941, abs=5e-4)
 
 
+def test_a_state_with_several_unstable_modes_is_checked_by_continuation():
+    """lam = 4, chi = 10 (N = 4, 16 x 32): Newton from the tilted spheroid converges to
+    psi = -0.338 with 7 unstable modes (leading (15.9, 9.6); measured 2026-12-03), which no TT
+    state just past its own Hopf point has (one pair crosses there).  TT is stable at lam = 4
+    (lambda_c(chi = 10) = 8.79 at this resolution, the quick report's neutral curve), and psi
+    falls with lam (0.5626 at lam = 1 and 0.4854 at lam = 2 on the chi = 10 branch of the same
+    report), so `reach` must return a stable state with 0 < psi < 0.4854."""
+    from vesicle.branch import reach
+
+    p, d = vs.Physics(v=0.95, lam=4.0, chi=10.0), vs.Discretisation(16, 4)
+    trap = vs.stability(vs.steady_tank_treading(p, d))
+    assert np.sum(trap.omega[:, 1] > 0) > 2
+    r = reach(p, d)
+    assert r.physics == p and 0.0 < r.psi < 0.4854
+    assert vs.stability(r).most_unstable[1] < 0
+
+
 @pytest.mark.slow
 def test_pseudo_arclength_locates_the_low_shear_fold():
     """chi = 0.2, N = 4 on 16 x 32: natural continuation in lam stops near 7.482; pseudo-arclength

@@ -558,13 +558,20 @@ def reach(
         easier.append(physics.replace(chi=1.0, lam=1.0, v=EASY_V))
     easier = list(dict.fromkeys(e for e in easier if e != physics))
     if direct is not None:
-        w_r, w_i = stability(direct).most_unstable
-        if not (w_i > 0 and (w_r <= REAL_TOLERANCE or verify_unstable) and easier):
+        spectrum = stability(direct)
+        w_r, w_i = spectrum.most_unstable
+        unstable = int(np.sum(spectrum.omega[:, 1] > 0))
+        # more than one unstable pair: not a TT state just past its own Hopf point (one pair
+        # crosses there) but one Newton wandered to (lam = 4, chi = 10, N = 4: psi = -0.338
+        # with 7 unstable modes, the leading one (15.9, 9.6))
+        suspect = w_r <= REAL_TOLERANCE or verify_unstable or unstable > 2
+        if not (w_i > 0 and suspect and easier):
             return direct
         # a real unstable mode: possibly the saddle half of a fold (SPEC §16); the state
         # continued from chi = 1 is the one on the branch that is stable below the fold
-        first = NewtonError(f"Newton from the default start found a state with a real unstable "
-                            f"mode (omega_I = {w_i:.3g})")  # fmt: skip
+        kind = "a real unstable mode" if w_r <= REAL_TOLERANCE else f"{unstable} unstable modes"
+        first = NewtonError(f"Newton from the default start found a state with {kind} "
+                            f"(omega_I = {w_i:.3g})")  # fmt: skip
 
     def say(text: str) -> None:
         log.warning("%s", text)
