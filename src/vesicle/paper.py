@@ -125,8 +125,8 @@ def _regimes_on_curves(folder: Path, item: str, stores: list[str]) -> list[str]:
 
     other = folder.parent / item / "neutral.h5"
     runs = [r for path in stores for r in runs_from_store(path)]
-    degrees = {tomllib.loads(SweepStore.read(path).config_text)["discretisation"]["degree"]
-               for path in stores}  # fmt: skip
+    degrees = {tomllib.loads(SweepStore.read(path).config_text or "")
+               .get("discretisation", {}).get("degree", 8) for path in stores}  # fmt: skip
     if not other.exists() or not runs:
         return []
     curves = [r["result"] for r in SweepStore.read(other).records.values()
