@@ -157,7 +157,10 @@ def test_stability_with_the_multipliers_curvature(state_v085, caplog):
     assert curved.curvature_shift == pytest.approx(-shift, abs=1e-12)
     # said once per resolution (a branch at a low degree would repeat it at every point),
     # later at info level
-    import vesicle.stability as stability_module
+    import importlib
+
+    # the module (the package's attribute of that name is the function)
+    stability_module = importlib.import_module("vesicle.stability")
 
     stability_module._WARNED.clear()
     with caplog.at_level("INFO", logger="vesicle.stability"):
