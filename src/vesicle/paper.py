@@ -117,6 +117,16 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
     return compute
 
 
+def _curves(path: Path, degrees: set[int] | None = None) -> list[dict]:
+    """The neutral curves with points in the sweep store at ``path`` (of ``degrees`` only, if
+    given)."""
+    from .sweep import SweepStore
+
+    return [r["result"] for r in SweepStore.read(path).records.values()
+            if r.get("result") and r["result"].get("points")
+            and (degrees is None or r["result"]["degree"] in degrees)]  # fmt: skip
+
+
 def _regimes_on_curves(folder: Path, item: str, stores: list[str]) -> list[str]:
     """The runs of the sweep ``stores`` on the phase diagrams of ``item``'s neutral curves at
     the runs' degree (none when that item has not run)."""
@@ -129,9 +139,7 @@ def _regimes_on_curves(folder: Path, item: str, stores: list[str]) -> list[str]:
                .get("discretisation", {}).get("degree", 8) for path in stores}  # fmt: skip
     if not other.exists() or not runs:
         return []
-    curves = [r["result"] for r in SweepStore.read(other).records.values()
-              if r.get("result") and r["result"].get("points")
-              and r["result"]["degree"] in degrees]  # fmt: skip
+    curves = _curves(other, degrees)
     if not curves:
         return []
     return [str(p) for p in plot_neutral(curves, folder / "phase", runs=runs)]
@@ -183,14 +191,11 @@ def _neutral_item(
                           f"degree = {degree}\ngrid = {grid}\n")  # fmt: skip
         store = run_sweep(read_sweep_config(config), workers=options.get("workers"),
                           scheduler=options.get("scheduler"))  # fmt: skip
-        curves = [r["result"] for r in SweepStore.read(store.path).records.values()
-                  if r.get("result") and r["result"].get("points")]  # fmt: skip
+        curves = _curves(store.path)
         drawn = list(curves)
         other = folder.parent / beside / "neutral.h5" if beside else None
         if other is not None and other.exists():
-            drawn += [r["result"] for r in SweepStore.read(other).records.values()
-                      if r.get("result") and r["result"].get("points")
-                      and r["result"]["degree"] == degree]  # fmt: skip
+            drawn += _curves(other, {degree})
         figures = [str(p) for p in plot_neutral(drawn, folder)]
         rows = [{"v": c["v"], "degree": c["degree"], "grid": c["grid"], **p}
                 for c in curves for p in c["points"]]  # fmt: skip
