@@ -16,9 +16,10 @@ def _boom(folder, quick, options):
 
 
 def test_a_small_report_has_every_image_and_data_file(tmp_path):
-    """Table 1 at N = 2, 4 on 12x24 and the spectrum figures (quick): index.html links only
-    files that exist; a failing item is shown with its error and the others still come; the
-    missing items are listed with their reason; a second call recomputes nothing."""
+    """Table 1 at N = 2, 4 on 12x24 and the spectrum figures (quick), computed together on one
+    cluster: index.html links only files that exist; a failing item is shown with its error and
+    the others still come; the missing items are listed with their reason; a second call
+    recomputes nothing."""
     items = [i for i in ITEMS if i.key in ("table1", "fig2")]
     items.append(Item("broken", "Figure 99", "an item that fails", _boom))
     items.append(Item("absent", "Figure 98", "an item not computable", None, "on purpose here"))
@@ -33,6 +34,10 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
         assert (tmp_path / ref).is_file(), ref
     assert "this item fails on purpose" in text
     assert "Not computed: on purpose here" in text
+    # three items to compute: they ran together, each in its own process, on one cluster
+    call = json.loads((tmp_path / "report.json").read_text())["calls"][0]
+    assert call["concurrent"] and call["items"] == ["table1", "fig2", "broken"]
+    assert "together on one Dask cluster" in text
     rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
     assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
     record = tmp_path / "table1" / "item.json"

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from vesicle.cli import main
 from vesicle.config import ConfigError
-from vesicle.sweep import SweepStore, load, read_sweep_config, run_point, run_sweep
+from vesicle.sweep import SweepStore, load, read_sweep_config, run_point, run_sweep, task_key
 
 SMALL = "[discretisation]\ndegree = 4\ngrid = 12\n"
 
@@ -158,6 +158,30 @@ def test_points_product_and_list(tmp_path):
     )
     assert [(p.lam, p.chi) for p in c.points] == [(1, 1), (2, 3)]
     assert c.out == tmp_path / "s.h5"
+
+
+def test_task_keys_share_identical_work_and_separate_any_difference(tmp_path):
+    """Sweeps sharing one scheduler (``vesicle paper``) submit their points under these keys:
+    the same branch in two stores is one task; another option, resolution or run folder is
+    another task (a shared key would hand one sweep the other's result)."""
+    base = ('[sweep]\ntask = "branch"\nout = "{out}"\n[grid]\nchi = [1.0]\n[task]\n'
+            'parameter = "lam"\n')
+
+    def key(folder, out="s.h5", task='values = "1:9:0.5"\n', extra=""):
+        (tmp_path / folder).mkdir(exist_ok=True)
+        path = write(tmp_path / folder, base.format(out=out) + task + extra)
+        c = read_sweep_config(path)
+        return task_key(c, c.points[0])
+
+    same = key("a")
+    assert key("b", out="other.h5") == same  # another store, the same work
+    assert key("c", task='values = "1:9:0.4"\n') != same  # other options
+    assert key("d", task='values = "1:9:0.5"\nellipsoid = true\n') != same
+    assert key("e", extra="[discretisation]\ndegree = 4\ngrid = 12\n") != same
+    runs = '[sweep]\ntask = "run"\nout = "{out}"\n[grid]\nlam = [9.0]\n[run]\nt_end = 1.0\n'
+    one = read_sweep_config(write(tmp_path / "a", runs.format(out="r1.h5")))
+    two = read_sweep_config(write(tmp_path / "a", runs.format(out="r2.h5")))
+    assert task_key(one, one.points[0]) != task_key(two, two.points[0])  # run files differ
 
 
 # --------------------------------------------------------------------- running

@@ -46,40 +46,72 @@ class Item:
     what: str  # one line: what it shows
     compute: Callable[[Path, bool, dict], dict] | None  # (folder, quick, options) -> content
     missing: str = ""  # why it cannot be computed yet (compute is None)
+    uses: tuple[str, ...] = ()  # items whose output it also draws (redrawn after them)
+    cost: int = 0  # the quick report's measured CPU seconds: the longest start first
+
+
+#: The resolution (grid n_theta, degree N) of the full and of the quick report.  At N = 4 the
+#: 12x24 grid is converged far below the degree's own error: Table 1's mode (v = 0.95, lam = 8,
+#: chi = 10) is omega = (3.22936, -0.062748) on 12x24, (3.22943, -0.062633) on 16x32 and
+#: (3.22944, -0.062633) on 24x48 (measured 2026-12-03), against -0.0831 at N = 14.
+FULL, QUICK = (32, 8), (12, 4)
+
+
+def _resolution(quick: bool) -> tuple[int, int]:
+    return QUICK if quick else FULL
+
+
+def _map(options: dict, fn: Callable, calls: list[tuple]) -> list:
+    """``[fn(*args) for args in calls]``: on the report's Dask scheduler when it has one
+    (``options["scheduler"]``; the calls side by side with every other item's points, at the
+    item's priority), else here, one after another.  ``fn`` is a module-level function."""
+    scheduler = options.get("scheduler")
+    if scheduler is None or not calls:
+        return [fn(*args) for args in calls]
+    from distributed import Client
+
+    with Client(scheduler) as client:
+        futures = [client.submit(fn, *args, pure=False, priority=options.get("priority", 0))
+                   for args in calls]  # fmt: skip
+        return client.gather(futures)
 
 
 # --------------------------------------------------------------------- the items
-def _table1(folder: Path, quick: bool, options: dict) -> dict:
-    """The most unstable mode against N at v = 0.95, lam = 8, chi = 10 (and v = 0.90,
-    lam = 6.5, chi = 10), one steady state + stability per N, each cached in its own JSON."""
+def _table1_row(v: float, lam: float, chi: float, n: int, grid: int, cache: str) -> dict:
+    """One row of Table 1 (the steady state and its most unstable mode), cached in ``cache``."""
     from .branch import reach
     from .parameters import Discretisation, Physics
     from .stability import stability
 
-    grid = options.get("grid", 16 if quick else 32)
+    path = Path(cache)
+    if path.exists():
+        return json.loads(path.read_text())
+    t0 = time.perf_counter()
+    r = reach(Physics(v=v, lam=lam, chi=chi), Discretisation(grid, n))
+    w_r, w_i = stability(r).most_unstable
+    row = {"v": v, "lam": lam, "chi": chi, "N": n, "grid": grid, "omega_R": w_r, "omega_I": w_i,
+           "psi": r.psi, "D": r.D, "seconds": time.perf_counter() - t0}  # fmt: skip
+    path.write_text(json.dumps(row))
+    return row
+
+
+def _table1(folder: Path, quick: bool, options: dict) -> dict:
+    """The most unstable mode against N at v = 0.95, lam = 8, chi = 10 (and v = 0.90,
+    lam = 6.5, chi = 10), one steady state + stability per N, each cached in its own JSON."""
+    grid = options.get("grid", _resolution(quick)[0] if quick else 32)
     degrees = options.get("degrees", [2, 4, 6] if quick else [2, 4, 6, 8, 10, 12, 14])
     cases = [(0.95, 8.0, 10.0), (0.90, 6.5, 10.0)]
-    rows, comparisons = [], []
-    for v, lam, chi in cases:
-        for n in degrees:
-            cache = folder / f"v{v:g}_N{n}.json"
-            if cache.exists():
-                row = json.loads(cache.read_text())
-            else:
-                t0 = time.perf_counter()
-                r = reach(Physics(v=v, lam=lam, chi=chi), Discretisation(grid, n))
-                w_r, w_i = stability(r).most_unstable
-                row = {"v": v, "lam": lam, "chi": chi, "N": n, "grid": grid, "omega_R": w_r,
-                       "omega_I": w_i, "psi": r.psi, "D": r.D,
-                       "seconds": time.perf_counter() - t0}  # fmt: skip
-                cache.write_text(json.dumps(row))
-            rows.append(row)
-            if v == 0.95 and n in TABLE1_PAPER and grid == 32:
-                p_r, p_i = TABLE1_PAPER[n]
-                comparisons += [
-                    {"quantity": f"omega_R, N = {n}", "paper": p_r, "ours": row["omega_R"]},
-                    {"quantity": f"omega_I, N = {n}", "paper": p_i, "ours": row["omega_I"]},
-                ]
+    calls = [(v, lam, chi, n, grid, str(folder / f"v{v:g}_N{n}_{grid}.json"))
+             for v, lam, chi in cases for n in degrees]  # fmt: skip
+    rows, comparisons = _map(options, _table1_row, calls), []
+    for row in rows:
+        n = row["N"]
+        if row["v"] == 0.95 and n in TABLE1_PAPER and grid == 32:
+            p_r, p_i = TABLE1_PAPER[n]
+            comparisons += [
+                {"quantity": f"omega_R, N = {n}", "paper": p_r, "ours": row["omega_R"]},
+                {"quantity": f"omega_I, N = {n}", "paper": p_i, "ours": row["omega_I"]},
+            ]
     table = _write_csv(folder / "table1.csv", rows)
     note = ""
     if grid != 32:
@@ -100,9 +132,18 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
 
         out = {"figures": [], "tables": [], "comparisons": [], "parameters": {}}
         stores = []
+        kwargs = {"quick": quick, "workers": options.get("workers"),
+                  "scheduler": options.get("scheduler"), "priority": options.get("priority", 0)}
+        together = (kwargs["scheduler"] is not None and len(names) > 1) or options.get(
+            "draw_only", False)
+        if together and not options.get("draw_only"):  # the studies' points side by side on
+            from concurrent.futures import ThreadPoolExecutor  # the scheduler, drawn below (one
+
+            # after another: matplotlib is not thread-safe)
+            with ThreadPoolExecutor(len(names)) as pool:
+                list(pool.map(lambda n: run_study(n, folder, draw=False, **kwargs), names))
         for name in names:
-            r = run_study(name, folder, quick=quick, workers=options.get("workers"),
-                          scheduler=options.get("scheduler"))  # fmt: skip
+            r = run_study(name, folder, compute=not together, **kwargs)
             stores.append(r["store"])
             out["figures"].append(r["figure"])
             out["tables"].append(r["table"])
@@ -145,19 +186,26 @@ def _regimes_on_curves(folder: Path, item: str, stores: list[str]) -> list[str]:
     return [str(p) for p in plot_neutral(curves, folder / "phase", runs=runs)]
 
 
-def _fig_spectrum(folder: Path, quick: bool, options: dict) -> dict:
-    """The steady state of Table 1's case, its E_l spectra and most unstable modes."""
+def _spectrum_state(path: str, grid: int, degree: int) -> None:
+    """Table 1's steady state and its stability, written to the steady-state file ``path``."""
     from .branch import reach
     from .parameters import Discretisation, Physics
     from .stability import stability
-    from .steady_io import read_steady, write_steady
+    from .steady_io import write_steady
+
+    r = reach(Physics(v=0.95, lam=8.0, chi=10.0), Discretisation(grid, degree))
+    write_steady(path, r, stability(r))
+
+
+def _fig_spectrum(folder: Path, quick: bool, options: dict) -> dict:
+    """The steady state of Table 1's case, its E_l spectra and most unstable modes."""
+    from .steady_io import read_steady
     from .steady_plots import plot_steady
 
-    grid, degree = (16, 4) if quick else (32, 8)
-    path = folder / "tt.h5"
+    grid, degree = _resolution(quick)
+    path = folder / f"tt_N{degree}_{grid}.h5"
     if not path.exists():
-        r = reach(Physics(v=0.95, lam=8.0, chi=10.0), Discretisation(grid, degree))
-        write_steady(path, r, stability(r))
+        _map(options, _spectrum_state, [(str(path), grid, degree)])
     figures = [str(p) for p in plot_steady(read_steady(path), folder)]
     return {"figures": figures, "tables": [str(path)], "comparisons": [],
             "parameters": {"v": 0.95, "lam": 8.0, "chi": 10.0, "degree": degree,
@@ -183,14 +231,18 @@ def _neutral_item(
 
         chi = quick_chi if quick else '"0.1:10"\npoints = 13'
         volumes = list(quick_vs or vs_) if quick else list(vs_)
-        grid, degree = (16, 4) if quick else (32, 8)
+        grid, degree = _resolution(quick)
         config = folder / f"{key}.toml"
         config.write_text(f'[sweep]\ntask = "neutral"\nout = "{key}.h5"\n[grid]\n'
                           f"v = {volumes}\n[task]\nchi = {chi}\n"
                           f'orientation = "{orientation}"\n[discretisation]\n'
                           f"degree = {degree}\ngrid = {grid}\n")  # fmt: skip
-        store = run_sweep(read_sweep_config(config), workers=options.get("workers"),
-                          scheduler=options.get("scheduler"))  # fmt: skip
+        if options.get("draw_only"):  # redrawn after the items it draws beside (the store is
+            store = SweepStore.open(read_sweep_config(config))  # complete, or as it is)
+        else:
+            store = run_sweep(read_sweep_config(config), workers=options.get("workers"),
+                              scheduler=options.get("scheduler"),
+                              priority=options.get("priority", 0))  # fmt: skip
         curves = _curves(store.path)
         drawn = list(curves)
         other = folder.parent / beside / "neutral.h5" if beside else None
@@ -221,21 +273,29 @@ def _neutral_item(
     return compute
 
 
-def _fig8(folder: Path, quick: bool, options: dict) -> dict:
-    """The leading eigenvalues along the chi = 0.2 branch as lam approaches the fold."""
+#: Figure 8's lam values on the chi = 0.2 branch: towards the fold (7.48 at N = 4, 7.3 at N = 8).
+FIG8_LAMS = [6.0, 6.5, 7.0, 7.2, 7.3, 7.35, 7.4, 7.42, 7.44, 7.46, 7.47, 7.48, 7.5, 7.6]
+
+
+def _fig8_branch(path: str, grid: int, degree: int) -> None:
+    """The chi = 0.2 branch in lam through :data:`FIG8_LAMS`, every point's stability kept."""
     from .branch import branch
-    from .branch_plots import fold_approach, plot_branch
     from .parameters import Discretisation, Physics
 
-    grid, degree = (16, 4) if quick else (32, 8)
-    path = folder / "branch.json"
-    if path.exists():
-        data = json.loads(path.read_text())
-    else:
-        values = [6.0, 6.5, 7.0, 7.2, 7.3, 7.35, 7.4, 7.42, 7.44, 7.46, 7.47, 7.48, 7.5, 7.6]
-        b = branch(Physics(v=0.95, chi=0.2), Discretisation(grid, degree), "lam", values)
-        data = {**b.to_dict(all_points=True), "physics": {"v": 0.95, "chi": 0.2}}
-        path.write_text(json.dumps(data))
+    b = branch(Physics(v=0.95, chi=0.2), Discretisation(grid, degree), "lam", FIG8_LAMS)
+    data = {**b.to_dict(all_points=True), "physics": {"v": 0.95, "chi": 0.2}}
+    Path(path).write_text(json.dumps(data))
+
+
+def _fig8(folder: Path, quick: bool, options: dict) -> dict:
+    """The leading eigenvalues along the chi = 0.2 branch as lam approaches the fold."""
+    from .branch_plots import fold_approach, plot_branch
+
+    grid, degree = _resolution(quick)
+    path = folder / f"branch_N{degree}_{grid}.json"
+    if not path.exists():
+        _map(options, _fig8_branch, [(str(path), grid, degree)])
+    data = json.loads(path.read_text())
     figures = [str(p) for p in plot_branch(data, folder)]
     fit = fold_approach(data)
     comparisons = []
@@ -247,31 +307,46 @@ def _fig8(folder: Path, quick: bool, options: dict) -> dict:
             "fit": fit}  # fmt: skip
 
 
+def _fig9_compute(folder: str, grid: int, degree: int) -> None:
+    """Table 1's state, its most unstable eigenvalue (``stability.json``) and the run from the
+    state perturbed by 0.01 (``run.h5``)."""
+    from .branch import reach
+    from .parameters import Discretisation, Physics
+    from .simulation import simulate
+    from .stability import stability
+
+    physics, disc = Physics(v=0.95, lam=8.0, chi=10.0), Discretisation(grid, degree)
+    r = reach(physics, disc)
+    w_r, w_i = stability(r).most_unstable
+    params = _fig9_parameters(grid, degree)
+    simulate(params, start=r.shape.perturbed(0.01, seed=4, degree=degree),
+             out=Path(folder) / "run.h5")  # fmt: skip
+    (Path(folder) / "stability.json").write_text(json.dumps({"omega": [w_r, w_i]}))
+
+
+def _fig9_parameters(grid: int, degree: int):
+    from .dynamics import RunParameters
+    from .parameters import Discretisation, Physics
+
+    return RunParameters(Physics(v=0.95, lam=8.0, chi=10.0), Discretisation(grid, degree),
+                         t_end=12.0, save_every=0.05, dt_max=0.05, integrator="ros34pw2",
+                         rtol=1e-4, save_fields=False, checkpoint_every=1e9)  # fmt: skip
+
+
 def _fig9(folder: Path, quick: bool, options: dict) -> dict:
     """Table 1's steady state perturbed and time-stepped: psi(t) and the fit of its damped
     oscillation against the most unstable eigenvalue of the stability analysis (SPEC §14)."""
     from .analysis import fit_damped_oscillation
-    from .branch import reach
-    from .dynamics import RunParameters
     from .io import read_run
-    from .parameters import Discretisation, Physics
     from .plots import _figure, _save
-    from .simulation import simulate
-    from .stability import stability
 
-    grid, degree = (16, 4) if quick else (32, 8)
-    physics, disc = Physics(v=0.95, lam=8.0, chi=10.0), Discretisation(grid, degree)
-    cache, run_path = folder / "stability.json", folder / "run.h5"
-    if cache.exists() and run_path.exists():
-        w_r, w_i = json.loads(cache.read_text())["omega"]
-    else:
-        r = reach(physics, disc)
-        w_r, w_i = stability(r).most_unstable
-        params = RunParameters(physics, disc, t_end=12.0, save_every=0.05, dt_max=0.05,
-                               integrator="ros34pw2", rtol=1e-4, save_fields=False,
-                               checkpoint_every=1e9)  # fmt: skip
-        simulate(params, start=r.shape.perturbed(0.01, seed=4, degree=degree), out=run_path)
-        cache.write_text(json.dumps({"omega": [w_r, w_i]}))
+    grid, degree = _resolution(quick)
+    sub = folder / f"N{degree}_{grid}"  # a resolution never reuses another's files
+    sub.mkdir(exist_ok=True)
+    cache, run_path = sub / "stability.json", sub / "run.h5"
+    if not (cache.exists() and run_path.exists()):
+        _map(options, _fig9_compute, [(str(sub), grid, degree)])
+    w_r, w_i = json.loads(cache.read_text())["omega"]
     run = read_run(run_path)
     t, psi = run.series["t"], run.series["psi"]
     fit = fit_damped_oscillation(t, psi, t_min=1.0)
@@ -307,43 +382,53 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
 #: degrees): lam = 11 at 0.2 pi ... 0.5 pi, lam = 10.5, 10 and 9 at 0.3 pi.
 TILTED = [(11.0, 36.0), (11.0, 54.0), (11.0, 72.0), (11.0, 90.0), (10.5, 54.0), (10.0, 54.0),
           (9.0, 54.0)]  # fmt: skip
-#: ``--quick``: two of them, to t = 30 (at N = 4 on 16x32 one run to t = 60 takes about 12 min).
-TILTED_QUICK = [(11.0, 54.0), (9.0, 54.0)]
+#: ``--quick``: lam = 11 at 0.3 pi, to t = 20 (at N = 4 on 16x32 one run to t = 60 took about
+#: 12 min; to t = 30 it showed the precession about y, period 4.98, over its last half).
+TILTED_QUICK = [(11.0, 54.0)]
+
+
+def _tilted_run(path: str, params) -> dict:
+    """One tilted start run to ``params.t_end`` (resumed from its file when cut short or asked to
+    go further); returns its summary."""
+    from .analysis import summarize
+    from .io import read_run
+    from .simulation import simulate
+
+    run = read_run(path) if Path(path).exists() else None
+    if run is not None and run.checkpoint is None:  # written before its first checkpoint
+        run = None
+    if run is None or float(run.checkpoint["t"]) < params.t_end - 1e-9:  # new, cut short or
+        run = simulate(params, out=path, resume=run)  # asked to go further: resume
+    return summarize(run)
 
 
 def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     """Tilted starts (SPEC §13): each run to ``t_end`` (resumed from its file when cut short),
     the orbit of its long axis classified (:func:`vesicle.analysis.classify_orbit`) over the last
     half, its axes drawn on the unit sphere and seen along the vorticity axis."""
-    from .analysis import summarize
     from .dynamics import RunParameters
     from .io import read_run
     from .plots import plot_out_of_plane
-    from .simulation import simulate
 
-    grid, degree = (16, 4) if quick else (32, 8)
+    grid, degree = _resolution(quick)
     grid = int(options.get("grid", grid))
-    t_end = float(options.get("t_end", 30.0 if quick else 60.0))
+    t_end = float(options.get("t_end", 20.0 if quick else 60.0))
     cases = options.get("tilted", TILTED_QUICK if quick else TILTED)
+    names = [f"lam{lam:g}_tilt{tilt:g}_N{degree}_{grid}" for lam, tilt in cases]  # a resolution
+    calls = [(str(folder / f"{name}.h5"),  # never reuses another's files
+              RunParameters(v=0.95, lam=lam, chi=4.0, grid=grid, degree=degree, t_end=t_end,
+                            save_every=0.05, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
+                            rtol=1e-3, save_fields=False))
+             for name, (lam, tilt) in zip(names, cases, strict=True)]  # fmt: skip
     rows, figures = [], []
-    for lam, tilt in cases:
-        name = f"lam{lam:g}_tilt{tilt:g}_N{degree}_{grid}"  # a resolution never reuses another's
-        path = folder / f"{name}.h5"
-        params = RunParameters(v=0.95, lam=lam, chi=4.0, grid=grid, degree=degree, t_end=t_end,
-                               save_every=0.05, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
-                               rtol=1e-3, save_fields=False)  # fmt: skip
-        run = read_run(path) if path.exists() else None
-        if run is not None and run.checkpoint is None:  # written before its first checkpoint
-            run = None
-        if run is None or float(run.checkpoint["t"]) < t_end - 1e-9:  # new, cut short or
-            run = simulate(params, out=path, resume=run)  # asked to go further: resume
-        s = summarize(run)
+    for name, (lam, tilt), s in zip(names, cases, _map(options, _tilted_run, calls), strict=True):
         orbit = s.get("orbit") or {}
         rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
                      "regime": s["regime"], "orbit": orbit.get("class"),
                      "orbit_period": orbit.get("period"), "psi_period": s["period"],
                      "detail": orbit.get("detail", s["regime_detail"]),
                      "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+        run = read_run(folder / f"{name}.h5")
         figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
     return {"figures": figures, "tables": [_write_csv(folder / "fig23.csv", rows)],
             "comparisons": [], "rows": rows,
@@ -354,70 +439,52 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                            "cases": [list(c) for c in cases]}}  # fmt: skip
 
 
+#: The items.  ``cost``: CPU seconds of the quick report measured 2026-12-03 at N = 4 on 16x32
+#: (before the quick runs were shortened): only the order in which the concurrent report
+#: starts them (the longest first).
 ITEMS: list[Item] = [
-    Item("table1", "Table 1", "most unstable mode against the shape degree N", _table1),
-    Item(
-        "fig2",
-        "Figures 2, 3, 10",
-        "steady TT state, E_l spectra, most unstable modes",
-        _fig_spectrum,
-    ),
-    Item(
-        "fig4",
-        "Figure 4",
-        "TT inclination and deformation against chi",
-        _study_item("tt-shape-chi"),
-    ),
-    Item(
-        "fig5",
-        "Figure 5",
-        "TT inclination against lambda, Misbah's (3.6)",
-        _study_item("tt-shape-lambda"),
-    ),
-    Item(
-        "fig6", "Figure 6", "TT inclination against the excess area", _study_item("tt-excess-area")
-    ),
-    Item(
-        "fig7",
-        "Figures 7, 13",
-        "neutral curves and the S-Lambda plane",
-        # quick: the paper's Figure 7 volumes, their Hopf part only (measured at N = 4 on 16x32
-        # with the fold part, chi = 0.2 ... 10 and the type change located: 23 min for v = 0.95,
-        # 31 min for 0.90, and v = 0.85 unresolved at that degree; from chi = 0.5: 5.4 and about
-        # 18 min, chi = 0.5 being a fold at v = 0.90; the fold itself is fig8's)
-        _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi="[1.0, 3.0, 10.0]",
-                      quick_vs=[0.95, 0.90]),
-    ),
-    Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8),
+    Item("table1", "Table 1", "most unstable mode against the shape degree N", _table1,
+         cost=17),
+    Item("fig2", "Figures 2, 3, 10", "steady TT state, E_l spectra, most unstable modes",
+         _fig_spectrum, cost=7),
+    Item("fig4", "Figure 4", "TT inclination and deformation against chi",
+         _study_item("tt-shape-chi"), cost=260),
+    Item("fig5", "Figure 5", "TT inclination against lambda, Misbah's (3.6)",
+         _study_item("tt-shape-lambda"), cost=46),
+    Item("fig6", "Figure 6", "TT inclination against the excess area",
+         _study_item("tt-excess-area"), cost=84),
+    Item("fig7", "Figures 7, 13", "neutral curves and the S-Lambda plane",
+         # quick: the paper's Figure 7 volumes, their Hopf part only (measured at N = 4 on 16x32
+         # with the fold part, chi = 0.2 ... 10 and the type change located: 23 min for v = 0.95,
+         # 31 min for 0.90, and v = 0.85 unresolved at that degree; from chi = 0.5: 5.4 and about
+         # 18 min, chi = 0.5 being a fold at v = 0.90; the fold itself is fig8's)
+         _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi="[1.0, 3.0, 10.0]",
+                       quick_vs=[0.95, 0.90]), cost=1500),
+    Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8,
+         cost=123),
     Item("fig9", "Figure 9", "relaxation of psi from a perturbed start against the stability",
-         _fig9),
+         _fig9, cost=96),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
-         _study_item("orbits", "stress-time")),
+         _study_item("orbits", "stress-time"), cost=1300),
     Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
          "on Figure 7's neutral curves)",
-         _study_item("periods-high-shear", "periods-low-shear", regimes_on="fig7")),
-    Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda", _study_item("stress-lambda")),
-    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi")),
-    Item(
-        "fig17",
-        "Figures 17, 20",
-        "stress decomposition and the equivalent ellipsoid",
-        _study_item("stress-split"),
-    ),
-    Item(
-        "fig18",
-        "Figures 18, 19, 21",
-        "the equivalent ellipsoid's stress maps",
-        _study_item("tt-shape-lambda", "ellipsoid-maps"),
-    ),
-    Item(
-        "fig22",
-        "Figure 22",
-        "neutral curves of the vorticity-aligned branch (dashed) beside the in-plane ones",
-        _neutral_item([0.95, 0.90], "neutral", orientation="vorticity",
-                      quick_chi="[2.0, 4.0, 8.0]", quick_vs=[0.95], beside="fig7"),
-    ),
-    Item("fig23", "Figures 23, 24", "tilted starts: orbits of the principal axes", _fig23),
+         _study_item("periods-low-shear", "periods-high-shear", regimes_on="fig7"),
+         uses=("fig7",), cost=1500),
+    Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda (TT branches; TR and TU runs "
+         "averaged over whole periods)", _study_item("stress-lambda-runs", "stress-lambda"),
+         cost=570),
+    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi"), cost=415),
+    Item("fig17", "Figures 17, 20", "stress decomposition and the equivalent ellipsoid",
+         _study_item("stress-split"), cost=174),
+    Item("fig18", "Figures 18, 19, 21", "the equivalent ellipsoid's stress maps",
+         _study_item("tt-shape-lambda", "ellipsoid-maps"), cost=150),
+    Item("fig22", "Figure 22",
+         "neutral curves of the vorticity-aligned branch (dashed) beside the in-plane ones",
+         _neutral_item([0.95, 0.90], "neutral", orientation="vorticity",
+                       quick_chi="[2.0, 4.0, 8.0]", quick_vs=[0.95], beside="fig7"),
+         uses=("fig7",), cost=212),
+    Item("fig23", "Figures 23, 24", "tilted starts: orbits of the principal axes", _fig23,
+         cost=850),
 ]
 
 
@@ -439,11 +506,15 @@ def build_report(
     items: list[Item] | None = None,
     redo: bool = False,
     progress: Callable[[str], None] | None = None,
+    concurrent: bool | None = None,
 ) -> Path:
     """Compute every item (or those of ``only``) into ``outdir`` and write ``index.html``.
 
-    A failing item is recorded on the page with its error; the others go on.  Returns the
-    page's path.
+    ``concurrent`` (default: when more than one item is to be computed): every item at once,
+    each driven by its own process, all their points on one Dask cluster (a LocalCluster of
+    ``options["workers"]`` processes started here, or ``options["scheduler"]``), the longest
+    items first; else one item after another.  A failing item is recorded on the page with its
+    error; the others go on.  Returns the page's path.
     """
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
@@ -453,29 +524,145 @@ def build_report(
         if unknown:
             raise ValueError(f"unknown item(s) {', '.join(unknown)}; the items are "
                              f"{', '.join(i.key for i in items)}")  # fmt: skip
-    options = options or {}
-    for item in items:
-        if (only and item.key not in only) or item.compute is None:
-            continue
-        folder = outdir / item.key
-        folder.mkdir(exist_ok=True)
-        record = folder / "item.json"
-        if record.exists() and not redo:
-            continue
-        if progress is not None:
-            progress(f"{item.title}: computing ({item.what})")
-        t0 = time.perf_counter()
-        try:
-            content = item.compute(folder, quick, options)
-            content["status"] = "failed" if content.get("failures") else "done"
-        except Exception as err:  # recorded on the page; the other items go on
-            log.exception("%s failed", item.title)
-            content = {"status": "error", "error": f"{type(err).__name__}: {err}"}
-        content.update(seconds=time.perf_counter() - t0, quick=quick, vesicle_version=__version__)
-        record.write_text(json.dumps(content, indent=1, default=str))
-        if progress is not None:
-            progress(f"{item.title}: {content['status']} in {content['seconds']:.0f} s")
+    options = dict(options or {})
+    todo = [item for item in items if item.compute is not None
+            and (not only or item.key in only)
+            and (redo or not (outdir / item.key / "item.json").exists())]  # fmt: skip
+    if concurrent is None:
+        concurrent = len(todo) > 1
+    t0 = time.perf_counter()
+    if concurrent and todo:
+        _compute_concurrently(outdir, todo, quick, options, progress)
+    else:
+        for item in todo:
+            _compute_item(outdir, item, quick, options, progress)
+    if todo:
+        _record_report(outdir, todo, quick, concurrent, options, time.perf_counter() - t0)
     return write_index(outdir, items, quick)
+
+
+def _compute_item(outdir: Path, item: Item, quick: bool, options: dict,
+                  progress: Callable[[str], None] | None, seconds: float = 0.0) -> dict:
+    """Compute ``item`` here and write its ``item.json`` (``seconds``: already spent on it)."""
+    folder = outdir / item.key
+    folder.mkdir(exist_ok=True)
+    if progress is not None:
+        progress(f"{item.title}: computing ({item.what})")
+    t0 = time.perf_counter()
+    try:
+        content = item.compute(folder, quick, options)
+        content["status"] = "failed" if content.get("failures") else "done"
+    except Exception as err:  # recorded on the page; the other items go on
+        log.exception("%s failed", item.title)
+        content = {"status": "error", "error": f"{type(err).__name__}: {err}"}
+    content["seconds"] = seconds + time.perf_counter() - t0
+    return _write_record(outdir, item, content, quick, progress)
+
+
+def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
+                  progress: Callable[[str], None] | None) -> dict:
+    content.update(quick=quick, vesicle_version=__version__)
+    write_atomically_text(outdir / item.key / "item.json",
+                          json.dumps(content, indent=1, default=str))  # fmt: skip
+    if progress is not None:
+        progress(f"{item.title}: {content['status']} in {content['seconds']:.0f} s")
+    return content
+
+
+def write_atomically_text(path: Path, text: str) -> None:
+    """``path`` replaced by ``text`` at once (a crash leaves the old file or the new one)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    tmp.replace(path)
+
+
+def _child_start(level: int) -> None:
+    """An item's process: its records at ``level`` and above on stderr, named by process."""
+    logging.basicConfig(level=level, format="%(processName)s %(name)s: %(message)s")
+    logging.getLogger("distributed").setLevel(logging.WARNING)
+
+
+def _child_compute(payload: bytes, folder: str, quick: bool, options: dict) -> dict:
+    """Run one item's compute (pickled by cloudpickle: items are closures) in its process."""
+    import cloudpickle
+
+    compute = cloudpickle.loads(payload)
+    t0 = time.perf_counter()
+    try:
+        content = compute(Path(folder), quick, options)
+        content["status"] = "failed" if content.get("failures") else "done"
+    except Exception as err:  # recorded on the page; the other items go on
+        log.exception("%s failed", folder)
+        content = {"status": "error", "error": f"{type(err).__name__}: {err}"}
+    content["seconds"] = time.perf_counter() - t0
+    return content
+
+
+def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: dict,
+                          progress: Callable[[str], None] | None) -> None:
+    """Every item of ``todo`` at once: one process per item drives it (its sweeps and its
+    direct computations go to the cluster as tasks, at the item's priority: the costliest
+    first); the items that draw others' output (``uses``) are redrawn here once all are done.
+    Ctrl-C stops them all; what finished is kept (the sweeps' stores, the items' records)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    import cloudpickle
+
+    from .sweep import _client
+
+    cluster = None
+    if options.get("scheduler") is None:
+        client, cluster = _client(options.get("workers"), None)
+        client.close()
+        options = {**options, "scheduler": cluster.scheduler_address}
+    options = {**options, "workers": None}
+    context = multiprocessing.get_context("spawn")
+    pools, futures = [], {}
+    try:
+        for item in sorted(todo, key=lambda i: -i.cost):
+            (outdir / item.key).mkdir(exist_ok=True)
+            pool = ProcessPoolExecutor(1, mp_context=context, initializer=_child_start,
+                                       initargs=(logging.getLogger().getEffectiveLevel(),))
+            pools.append(pool)
+            payload = cloudpickle.dumps(item.compute)
+            future = pool.submit(_child_compute, payload, str(outdir / item.key), quick,
+                                 {**options, "priority": item.cost})  # fmt: skip
+            futures[future] = item
+        if progress is not None:
+            progress(f"{len(todo)} items started together on the cluster at "
+                     f"{options['scheduler']}: {', '.join(i.key for i in futures.values())}")
+        for future in as_completed(futures):
+            item = futures[future]
+            try:
+                content = future.result()
+            except Exception as err:  # the item's process died (killed, out of memory)
+                content = {"status": "error", "error": f"{type(err).__name__}: {err}",
+                           "seconds": 0.0}  # fmt: skip
+            _write_record(outdir, item, content, quick, progress)
+        computed = {i.key for i in todo}
+        for item in todo:  # redraw the items that draw another item computed in this call
+            previous = json.loads((outdir / item.key / "item.json").read_text())
+            if set(item.uses) & computed and previous["status"] != "error":
+                _compute_item(outdir, item, quick, {**options, "draw_only": True}, progress,
+                              seconds=previous["seconds"])
+    finally:
+        for pool in pools:
+            pool.shutdown(wait=False, cancel_futures=True)
+        if cluster is not None:
+            cluster.close()
+
+
+def _record_report(outdir: Path, todo: list[Item], quick: bool, concurrent: bool,
+                   options: dict, seconds: float) -> None:
+    """``DIR/report.json``: the wall time of this call, what it computed and how."""
+    path = outdir / "report.json"
+    history = json.loads(path.read_text()).get("calls", []) if path.exists() else []
+    history.append({"items": [i.key for i in todo], "seconds": seconds, "quick": quick,
+                    "concurrent": concurrent, "workers": options.get("workers"),
+                    "scheduler": options.get("scheduler"), "vesicle_version": __version__,
+                    "finished": time.strftime("%Y-%m-%d %H:%M:%S")})  # fmt: skip
+    write_atomically_text(path, json.dumps({"calls": history}, indent=1))
 
 
 def _rel(path: str, outdir: Path) -> str:
@@ -498,9 +685,18 @@ def write_index(outdir: Path, items: list[Item], quick: bool) -> Path:
              "<h1>The seed paper's tables and figures, regenerated by vesicle "
              f"{e(__version__)}</h1>"]  # fmt: skip
     if quick:
-        parts.append('<p class="quick"><b>QUICK REPORT</b>: reduced resolution (N = 4 on 16×32, '
+        parts.append('<p class="quick"><b>QUICK REPORT</b>: reduced resolution (N = 4 on 12×24, '
                      "fewer points); its numbers are not the paper's resolution and are not "
                      "compared with the paper's where the resolution differs.</p>")  # fmt: skip
+    report = outdir / "report.json"
+    if report.exists():
+        calls = json.loads(report.read_text()).get("calls", [])
+        lines = [f"{len(c['items'])} item(s) in {c['seconds']:.0f} s "
+                 f"({c['seconds'] / 60:.1f} min; finished {e(c['finished'])}, "
+                 + ("together on one Dask cluster" if c["concurrent"] else "one after another")
+                 + ")" for c in calls]  # fmt: skip
+        parts.append("<p>Computed by " + "; then ".join(lines) + ". When items run together, "
+                     "an item's wall time below includes its wait for the cores.</p>")
     summary = []
     for item in items:
         record = outdir / item.key / "item.json"

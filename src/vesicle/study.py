@@ -147,17 +147,27 @@ def run_study(
     workers: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[dict], None] | None = None,
+    priority: int = 0,
+    draw: bool = True,
+    compute: bool = True,
 ) -> dict:
     """Run a study into ``outdir`` (resumable) and draw it; returns ``{"config", "store",
-    "figure", "table", "status"}``."""
+    "figure", "table", "status"}``.  ``priority``: its points' Dask priority (higher first);
+    ``draw=False``: compute only (``figure`` and ``table`` are ``None``); ``compute=False``:
+    draw what the store holds (a point not done stays so)."""
     study, tables = load_study(name_or_path, quick)
     folder = Path(outdir)
     folder.mkdir(parents=True, exist_ok=True)
     config = read_sweep_config(_write_config(study, tables, folder))
-    store = run_sweep(config, workers=workers, scheduler=scheduler, progress=progress)
-    figure, table = plot_study(store, study, folder)
-    return {"config": str(config.path), "store": str(config.out), "figure": str(figure),
-            "table": str(table), "status": store.status(config)}  # fmt: skip
+    if compute:
+        store = run_sweep(config, workers=workers, scheduler=scheduler, progress=progress,
+                          priority=priority)
+    else:
+        store = SweepStore.open(config)
+    figure, table = plot_study(store, study, folder) if draw else (None, None)
+    return {"config": str(config.path), "store": str(config.out),
+            "figure": None if figure is None else str(figure),
+            "table": None if table is None else str(table), "status": store.status(config)}
 
 
 def _get(point: dict, key: str):

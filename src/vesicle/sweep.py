@@ -69,7 +69,7 @@ from .dynamics import RunParameters
 from .ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 from .io import open_file, read_run, stamp, write_atomically
 from .neutral import neutral_curve
-from .parameters import Discretisation, Physics
+from .parameters import Discretisation, Physics, stable_key
 from .simulation import load_parameters, simulate
 from .stability import stability
 from .steady import ORIENTATIONS
@@ -593,17 +593,34 @@ def _client(workers: int | None, scheduler: str | None) -> tuple:
     return Client(cluster), cluster
 
 
+def task_key(config: SweepConfig, point: Physics) -> str:
+    """The Dask key of ``point`` of ``config``: a hash of everything that defines its work
+    (task, parameters, resolution, options, settings; a run's file folder among them), the
+    same for the same work in any sweep, different when anything differs."""
+    settings = {k: (v.to_dict() if hasattr(v, "to_dict") else v)
+                for k, v in config.settings.items()}  # fmt: skip
+    work = {"task": config.task, "point": point.to_dict(),
+            "discretisation": config.discretisation.to_dict(), "options": config.options,
+            "settings": settings}  # fmt: skip
+    return "vesicle-point-" + stable_key(json.loads(json.dumps(work, default=str)), 20)
+
+
 def run_sweep(
     config: SweepConfig,
     workers: int | None = None,
     scheduler: str | None = None,
     progress: Callable[[dict], None] | None = None,
+    priority: int = 0,
 ) -> SweepStore:
     """Evaluate every point of ``config`` not yet done, on Dask, recording each as it completes.
 
     ``progress`` is called after every completed point with ``{"key", "status", "done",
-    "total", "seconds"}``.  Returns the store; raises only for the sweep itself (a bad config,
+    "total", "seconds"}``.  ``priority``: Dask's task priority (higher first), for sweeps that
+    share one scheduler.  Returns the store; raises only for the sweep itself (a bad config,
     an unwritable store), never for a point.
+
+    A point's Dask key is :func:`task_key`: sweeps sharing a scheduler compute an identical
+    point once and never mix up two that differ only in their options.
     """
     from distributed import as_completed
 
@@ -620,8 +637,8 @@ def run_sweep(
         disc = config.discretisation.to_dict()
         for p in todo:
             future = client.submit(run_point, config.task, p.to_dict(), disc, config.options,
-                                   config.settings, key=f"vesicle-point-{p.key}",
-                                   pure=False)  # fmt: skip
+                                   config.settings, key=task_key(config, p),
+                                   priority=priority, pure=False)  # fmt: skip
             futures[future] = p.key
         for future in as_completed(futures):
             key = futures[future]

@@ -9,7 +9,8 @@ from .base import fail, main
 
 
 @main.command("paper")
-@click.option("--quick", is_flag=True, help="Reduced resolution (N = 4 on 16x32, fewer points).")
+@click.option("--quick", is_flag=True,
+              help="Reduced resolution (N = 4 on 12x24, fewer points, shorter runs).")
 @click.option("--out", "outdir", type=click.Path(file_okay=False), default="paper",
               show_default=True, help="Folder of the report and its data.")  # fmt: skip
 @click.option("--only", default=None, metavar="ITEM,...",

@@ -16,7 +16,7 @@ from .sweep import _progress_printer
 @click.argument("name", required=False)
 @click.option("--list", "show_list", is_flag=True, help="List the shipped studies and their costs.")
 @click.option("--quick", is_flag=True,
-              help="Reduced resolution (the study's [quick] table: N = 4 on 16x32).")  # fmt: skip
+              help="Reduced resolution (the study's [quick] table: N = 4 on 12x24).")  # fmt: skip
 @click.option("--out", "outdir", type=click.Path(file_okay=False), default="studies",
               show_default=True,
               help="Folder for the study's config, store, figure and table.")  # fmt: skip
