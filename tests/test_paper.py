@@ -15,6 +15,13 @@ def _boom(folder, quick, options):
     raise RuntimeError("this item fails on purpose")
 
 
+def _killed(folder, quick, options):
+    import os
+    import signal
+
+    os.kill(os.getpid(), signal.SIGKILL)  # its process dies, as under the OOM killer
+
+
 def test_a_small_report_has_every_image_and_data_file(tmp_path):
     """Table 1 at N = 2, 4 on 12x24 and the spectrum figures (quick), computed together on one
     cluster: index.html links only files that exist; a failing item is shown with its error and
@@ -23,6 +30,7 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     items = [i for i in ITEMS if i.key in ("table1", "fig2")]
     items.append(Item("broken", "Figure 99", "an item that fails", _boom))
     items.append(Item("absent", "Figure 98", "an item not computable", None, "on purpose here"))
+    items.append(Item("killed", "Figure 97", "an item whose process is killed", _killed))
     page = build_report(tmp_path, quick=True, items=items,
                         options={"grid": 12, "degrees": [2, 4]})  # fmt: skip
     text = page.read_text()
@@ -36,7 +44,8 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     assert "Not computed: on purpose here" in text
     # three items to compute: they ran together, each in its own process, on one cluster
     call = json.loads((tmp_path / "report.json").read_text())["calls"][0]
-    assert call["concurrent"] and call["items"] == ["table1", "fig2", "broken"]
+    assert call["concurrent"] and call["items"] == ["table1", "fig2", "broken", "killed"]
+    assert "its process ended without a result (exit code -9)" in text
     assert "together on one Dask cluster" in text
     rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
     assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
@@ -112,3 +121,41 @@ def test_runs_are_drawn_on_the_neutral_curves_of_their_degree(tmp_path):
     drawn = _regimes_on_curves(folder, "fig7", [str(runs)])
     assert [p.rsplit("/", 1)[1] for p in drawn] == ["phase_diagram.png", "phase_SLambda.png"]
     assert all(open(p, "rb").read(4) == b"\x89PNG" for p in drawn)
+
+
+def test_period_checks_against_the_hopf_frequency_and_the_fold(tmp_path):
+    """Figure 12's comparisons on synthetic stores: the chi = 6 TR period nearest lam_c against
+    2 pi / omega_R of the critical store, and the chi = 0.2 exponent of an exact
+    T = 3 (lam - 7.5)^(-1/2) with lam_c free (three runs) and at fig8's fold (7.5)."""
+    import math
+
+    from vesicle.paper import _period_checks
+    from vesicle.sweep import SweepStore
+
+    folder = tmp_path / "fig12"
+    folder.mkdir()
+
+    def store(name, rows, task="run"):
+        records = {f"p{i}": {"status": "done", "physics": {"v": 0.95}, "result": r}
+                   for i, r in enumerate(rows)}  # fmt: skip
+        s = SweepStore(folder / f"{name}.h5", "f", "", task, records)
+        s.write()
+        return s
+
+    store("periods-high-shear", [{"lam": lam, "chi": 6.0, "regime": regime, "period": t}
+                                 for lam, regime, t in [(12, "TR", 1.8), (9, "TR", 2.39),
+                                                        (20, "TU", 1.4)]])  # fmt: skip
+    store("periods-low-shear", [{"lam": lam, "chi": 0.2, "regime": "TU",
+                                 "period": 3.0 * (lam - 7.5) ** -0.5} for lam in (9, 10, 12)])
+    hopf = store("hopf", [{"lambda_c": 8.72, "omega_R": 2.47, "bifurcation": "hopf"}], "critical")
+    comparisons, notes = _period_checks(folder, hopf, 12, 4)
+    assert [c["ours"] for c in comparisons[:2]] == [2.39, pytest.approx(0.5, abs=1e-6)]
+    assert comparisons[0]["paper"] == pytest.approx(2 * math.pi / 2.47)
+    assert "lam = 9" in comparisons[0]["quantity"] and len(comparisons) == 2
+    assert notes == ["the fit with lam_c at the fold needs fig8 at the same resolution"]
+    (tmp_path / "fig8").mkdir()
+    (tmp_path / "fig8" / "branch_N4_12.json").write_text(json.dumps(
+        {"special_points": [{"type": "saddle-node", "lam": 7.5, "omega_R": 0.0}]}))
+    comparisons, notes = _period_checks(folder, hopf, 12, 4)
+    assert comparisons[2]["ours"] == pytest.approx(0.5, rel=1e-9) and notes == []
+    assert _period_checks(folder, hopf, 16, 4)[1]  # fig8 at another resolution: not used

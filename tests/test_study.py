@@ -128,6 +128,11 @@ def test_runs_figure_and_period_fit_on_a_synthetic_store(tmp_path):
     assert json.loads((tmp_path / "p_fit.json").read_text())["chi = 0.2"]["p"] == pytest.approx(
         0.5, abs=1e-6)  # fmt: skip
     assert period_fit([8.0, 9.0], [1.0, 2.0]) is None
+    # lam_c given (the fold located on the branch): two runs fix c and p exactly
+    fixed = period_fit([9.0, 12.0], [3.0 * 1.5**-0.5, 3.0 * 4.5**-0.5], lambda_c=7.5)
+    assert fixed["p"] == pytest.approx(0.5, rel=1e-12) and fixed["c"] == pytest.approx(3.0)
+    assert fixed["lambda_c_fixed"] and fixed["lambda_c"] == 7.5
+    assert period_fit([7.5, 9.0], [1.0, 2.0], lambda_c=7.5) is None  # a run at lam_c
 
 
 def test_an_ellipsoid_map_study_runs_and_draws(tmp_path):

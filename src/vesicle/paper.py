@@ -24,6 +24,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from . import __version__
 
 __all__ = ["ITEMS", "Item", "build_report", "write_index"]
@@ -98,7 +100,7 @@ def _table1_row(v: float, lam: float, chi: float, n: int, grid: int, cache: str)
 def _table1(folder: Path, quick: bool, options: dict) -> dict:
     """The most unstable mode against N at v = 0.95, lam = 8, chi = 10 (and v = 0.90,
     lam = 6.5, chi = 10), one steady state + stability per N, each cached in its own JSON."""
-    grid = options.get("grid", _resolution(quick)[0] if quick else 32)
+    grid = options.get("grid", 16 if quick else 32)  # 16: N = 6 aliases on 12x24
     degrees = options.get("degrees", [2, 4, 6] if quick else [2, 4, 6, 8, 10, 12, 14])
     cases = [(0.95, 8.0, 10.0), (0.90, 6.5, 10.0)]
     calls = [(v, lam, chi, n, grid, str(folder / f"v{v:g}_N{n}_{grid}.json"))
@@ -127,23 +129,16 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
     time-dependent runs are drawn on its phase diagrams by the regime each run's analysis found
     (the TR and TU points of the paper's Figure 7), in ``folder/phase/``."""
 
-    def compute(folder: Path, quick: bool, options: dict) -> dict:
-        from .study import run_study
+    def compute(folder: Path, quick: bool, options: dict, extra: list | None = None) -> dict:
+        from .study import run_studies
 
         out = {"figures": [], "tables": [], "comparisons": [], "parameters": {}}
         stores = []
-        kwargs = {"quick": quick, "workers": options.get("workers"),
-                  "scheduler": options.get("scheduler"), "priority": options.get("priority", 0)}
-        together = (kwargs["scheduler"] is not None and len(names) > 1) or options.get(
-            "draw_only", False)
-        if together and not options.get("draw_only"):  # the studies' points side by side on
-            from concurrent.futures import ThreadPoolExecutor  # the scheduler, drawn below (one
-
-            # after another: matplotlib is not thread-safe)
-            with ThreadPoolExecutor(len(names)) as pool:
-                list(pool.map(lambda n: run_study(n, folder, draw=False, **kwargs), names))
-        for name in names:
-            r = run_study(name, folder, compute=not together, **kwargs)
+        results = run_studies(list(names), folder, quick=quick, workers=options.get("workers"),
+                              scheduler=options.get("scheduler"),
+                              priority=options.get("priority", 0),
+                              compute=not options.get("draw_only"), extra=extra)  # fmt: skip
+        for name, r in zip(names, results, strict=True):
             stores.append(r["store"])
             out["figures"].append(r["figure"])
             out["tables"].append(r["table"])
@@ -271,6 +266,72 @@ def _neutral_item(
                                "orientation": orientation}}  # fmt: skip
 
     return compute
+
+
+def _period_checks(folder: Path, hopf, grid: int, degree: int) -> tuple[list[dict], list[str]]:
+    """Figure 12's comparisons from its stores in ``folder`` (and fig8's branch beside it): the
+    chi = 6 TR period nearest the Hopf point of the ``hopf`` store against 2 pi / omega_R, and
+    the chi = 0.2 period exponent with lam_c free and at the fold."""
+    from .study import period_fit
+    from .sweep import SweepStore
+
+    def runs(name: str) -> list[dict]:
+        path = folder / f"{name}.h5"
+        return sorted((r["result"] for r in SweepStore.read(path).records.values()
+                       if r.get("status") == "done" and r.get("result", {}).get("period")),
+                      key=lambda r: r["lam"]) if path.exists() else []  # fmt: skip
+
+    comparisons, notes = [], []
+    critical = [r["result"] for r in hopf.records.values() if r.get("status") == "done"]
+    tr = [r for r in runs("periods-high-shear") if r.get("regime") == "TR"]
+    if critical and critical[0].get("omega_R") and tr:
+        c, r = critical[0], tr[0]
+        comparisons.append({"quantity": f"chi = 6: TR period at lam = {r['lam']:g} against "
+                            f"2 pi / omega_R at the Hopf point lam_c = {c['lambda_c']:.4g} "
+                            "(both ours; equal as lam -> lam_c)",
+                            "paper": 2 * np.pi / c["omega_R"], "ours": r["period"]})
+    low = runs("periods-low-shear")
+    lams, periods = [r["lam"] for r in low], [r["period"] for r in low]
+    free = period_fit(lams, periods)
+    if free is not None:
+        comparisons.append({"quantity": "chi = 0.2: exponent p of T ~ (lam - lam_c)^(-p), lam_c "
+                            f"fitted ({free['lambda_c']:.4g})", "paper": 0.5, "ours": free["p"]})
+    branch = folder.parent / "fig8" / f"branch_N{degree}_{grid}.json"
+    folds = ([s for s in json.loads(branch.read_text())["special_points"]
+              if s["type"] in ("saddle-node", "fold")] if branch.exists() else [])  # fmt: skip
+    fixed = period_fit(lams, periods, lambda_c=folds[0]["lam"]) if folds else None
+    if fixed is not None:
+        comparisons.append({"quantity": "chi = 0.2: exponent p, lam_c at the fold of fig8's "
+                            f"branch ({fixed['lambda_c']:.5g})", "paper": 0.5,
+                            "ours": fixed["p"]})  # fmt: skip
+    elif not folds:
+        notes.append("the fit with lam_c at the fold needs fig8 at the same resolution")
+    return comparisons, notes
+
+
+def _fig12(folder: Path, quick: bool, options: dict) -> dict:
+    """The period studies (drawn on fig7's neutral curves by regime), and the two checks of
+    SPEC §14 beside them: the chi = 6 TR period nearest the Hopf point against 2 pi / omega_R
+    there (a ``critical`` sweep at chi = 6, run alongside the studies), and the exponent of
+    T = c (lam - lam_c)^(-p) at chi = 0.2 with lam_c free and with lam_c at the fold that fig8
+    located at the same resolution (when fig8 has run)."""
+    from .sweep import SweepStore, read_sweep_config
+
+    grid, degree = _resolution(quick)
+    config = folder / "hopf.toml"
+    config.write_text('[sweep]\ntask = "critical"\nout = "hopf.h5"\n[grid]\nv = [0.95]\n'
+                      f"chi = [6.0]\n[discretisation]\ndegree = {degree}\ngrid = {grid}\n")
+    hopf_config = read_sweep_config(config)
+    studies = _study_item("periods-low-shear", "periods-high-shear", regimes_on="fig7")
+    out = studies(folder, quick, options, extra=[hopf_config])  # the Hopf point alongside
+    hopf = SweepStore.open(hopf_config)
+    out["tables"].append(str(hopf.path))
+    if hopf.status(hopf_config)["failed"]:
+        out.setdefault("failures", []).append("the critical point at chi = 6 failed")
+    comparisons, notes = _period_checks(folder, hopf, grid, degree)
+    out["comparisons"] += comparisons
+    out["note"] = "; ".join(notes)
+    return out
 
 
 #: Figure 8's lam values on the chi = 0.2 branch: towards the fold (7.48 at N = 4, 7.3 at N = 8).
@@ -468,8 +529,7 @@ ITEMS: list[Item] = [
          _study_item("orbits", "stress-time"), cost=1300),
     Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
          "on Figure 7's neutral curves)",
-         _study_item("periods-low-shear", "periods-high-shear", regimes_on="fig7"),
-         uses=("fig7",), cost=1500),
+         _fig12, uses=("fig7", "fig8"), cost=1500),
     Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda (TT branches; TR and TU runs "
          "averaged over whole periods)", _study_item("stress-lambda-runs", "stress-lambda"),
          cost=570),
@@ -576,26 +636,28 @@ def write_atomically_text(path: Path, text: str) -> None:
     tmp.replace(path)
 
 
-def _child_start(level: int) -> None:
-    """An item's process: its records at ``level`` and above on stderr, named by process."""
-    logging.basicConfig(level=level, format="%(processName)s %(name)s: %(message)s")
-    logging.getLogger("distributed").setLevel(logging.WARNING)
-
-
-def _child_compute(payload: bytes, folder: str, quick: bool, options: dict) -> dict:
-    """Run one item's compute (pickled by cloudpickle: items are closures) in its process."""
+def _child_main(conn, payload: bytes, folder: str, quick: bool, options: dict,
+                level: int) -> None:
+    """An item's process: run its compute (pickled by cloudpickle: items are closures) and send
+    back its content; its records at ``level`` and above go to stderr, named by item."""
     import cloudpickle
 
-    compute = cloudpickle.loads(payload)
+    logging.basicConfig(level=level, format=f"{Path(folder).name}: %(name)s: %(message)s")
+    logging.getLogger("distributed").setLevel(logging.WARNING)
     t0 = time.perf_counter()
     try:
-        content = compute(Path(folder), quick, options)
+        content = cloudpickle.loads(payload)(Path(folder), quick, options)
         content["status"] = "failed" if content.get("failures") else "done"
     except Exception as err:  # recorded on the page; the other items go on
         log.exception("%s failed", folder)
         content = {"status": "error", "error": f"{type(err).__name__}: {err}"}
     content["seconds"] = time.perf_counter() - t0
-    return content
+    conn.send(content)
+    conn.close()
+
+
+#: Seconds between the concurrent report's progress lines (when no item finished meanwhile).
+STATUS_EVERY = 120.0
 
 
 def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: dict,
@@ -603,9 +665,10 @@ def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: 
     """Every item of ``todo`` at once: one process per item drives it (its sweeps and its
     direct computations go to the cluster as tasks, at the item's priority: the costliest
     first); the items that draw others' output (``uses``) are redrawn here once all are done.
-    Ctrl-C stops them all; what finished is kept (the sweeps' stores, the items' records)."""
+    An item whose process dies is recorded as an error; Ctrl-C stops them all.  What finished
+    is kept (the sweeps' stores, the items' records)."""
     import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from multiprocessing.connection import wait
 
     import cloudpickle
 
@@ -618,28 +681,41 @@ def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: 
         options = {**options, "scheduler": cluster.scheduler_address}
     options = {**options, "workers": None}
     context = multiprocessing.get_context("spawn")
-    pools, futures = [], {}
+    level = logging.getLogger().getEffectiveLevel()
+    children = {}  # the reading end of each item's pipe -> (process, item)
     try:
         for item in sorted(todo, key=lambda i: -i.cost):
             (outdir / item.key).mkdir(exist_ok=True)
-            pool = ProcessPoolExecutor(1, mp_context=context, initializer=_child_start,
-                                       initargs=(logging.getLogger().getEffectiveLevel(),))
-            pools.append(pool)
-            payload = cloudpickle.dumps(item.compute)
-            future = pool.submit(_child_compute, payload, str(outdir / item.key), quick,
-                                 {**options, "priority": item.cost})  # fmt: skip
-            futures[future] = item
+            recv, send = context.Pipe(duplex=False)
+            process = context.Process(
+                target=_child_main, name=f"vesicle-paper-{item.key}",
+                args=(send, cloudpickle.dumps(item.compute), str(outdir / item.key), quick,
+                      {**options, "priority": item.cost}, level))  # fmt: skip
+            process.start()
+            send.close()
+            children[recv] = (process, item)
         if progress is not None:
             progress(f"{len(todo)} items started together on the cluster at "
-                     f"{options['scheduler']}: {', '.join(i.key for i in futures.values())}")
-        for future in as_completed(futures):
-            item = futures[future]
-            try:
-                content = future.result()
-            except Exception as err:  # the item's process died (killed, out of memory)
-                content = {"status": "error", "error": f"{type(err).__name__}: {err}",
-                           "seconds": 0.0}  # fmt: skip
-            _write_record(outdir, item, content, quick, progress)
+                     f"{options['scheduler']}: {', '.join(i.key for _, i in children.values())}")
+        pending, t0 = set(children), time.perf_counter()
+        while pending:
+            ready = wait(list(pending), timeout=STATUS_EVERY)
+            for conn in ready:
+                process, item = children[conn]
+                try:
+                    content = conn.recv()
+                except EOFError:  # the item's process died (killed, out of memory)
+                    process.join()
+                    content = {"status": "error", "seconds": time.perf_counter() - t0,
+                               "error": f"its process ended without a result (exit code "
+                                        f"{process.exitcode})"}  # fmt: skip
+                pending.discard(conn)
+                _write_record(outdir, item, content, quick, progress)
+            if not ready and progress is not None:
+                running = sorted(children[c][1].key for c in pending)
+                progress(f"{(time.perf_counter() - t0) / 60:.1f} min: "
+                         f"{len(children) - len(pending)} of {len(children)} items done; "
+                         f"running {', '.join(running)}")  # fmt: skip
         computed = {i.key for i in todo}
         for item in todo:  # redraw the items that draw another item computed in this call
             previous = json.loads((outdir / item.key / "item.json").read_text())
@@ -647,8 +723,10 @@ def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: 
                 _compute_item(outdir, item, quick, {**options, "draw_only": True}, progress,
                               seconds=previous["seconds"])
     finally:
-        for pool in pools:
-            pool.shutdown(wait=False, cancel_futures=True)
+        for process, _ in children.values():
+            if process.is_alive():
+                process.terminate()
+            process.join(10)
         if cluster is not None:
             cluster.close()
 

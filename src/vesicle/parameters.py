@@ -31,6 +31,10 @@ __all__ = ["Discretisation", "Physics", "SolverTolerances", "stable_key"]
 log = logging.getLogger(__name__)
 
 
+#: The coarse (grid, degree) pairs already warned about in this process.
+_WARNED_COARSE: set[tuple[int, int]] = set()
+
+
 def stable_key(data: dict, length: int = 12) -> str:
     """A short hex digest of JSON-able ``data``: identical in every process (unlike ``hash``)."""
     text = json.dumps(data, sort_keys=True, separators=(",", ":"), allow_nan=True)
@@ -200,7 +204,8 @@ class Discretisation(_Frozen):
                 f"force (fourth derivatives, nonlinear) needs n_theta >= 2 N = {2 * degree}; "
                 "SPEC's default is N = 8 on 32 x 64"
             )
-        if grid < 2 * degree + 4:
+        if grid < 2 * degree + 4 and (grid, degree) not in _WARNED_COARSE:
+            _WARNED_COARSE.add((grid, degree))  # once per process: objects are made often
             log.warning(
                 "grid n_theta = %d is coarse for degree N = %d: the bending force aliases; "
                 "SPEC uses N = 8 on 32 x 64",

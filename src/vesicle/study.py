@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .sweep import SweepStore, read_sweep_config, run_sweep
+from .sweep import SweepConfig, SweepStore, read_sweep_config, run_sweeps
 from .theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
 
 __all__ = [
@@ -48,6 +48,7 @@ __all__ = [
     "load_study",
     "period_fit",
     "plot_study",
+    "run_studies",
     "run_study",
     "study_of_store",
     "study_rows",
@@ -148,26 +149,45 @@ def run_study(
     scheduler: str | None = None,
     progress: Callable[[dict], None] | None = None,
     priority: int = 0,
-    draw: bool = True,
-    compute: bool = True,
 ) -> dict:
     """Run a study into ``outdir`` (resumable) and draw it; returns ``{"config", "store",
-    "figure", "table", "status"}``.  ``priority``: its points' Dask priority (higher first);
-    ``draw=False``: compute only (``figure`` and ``table`` are ``None``); ``compute=False``:
-    draw what the store holds (a point not done stays so)."""
-    study, tables = load_study(name_or_path, quick)
+    "figure", "table", "status"}``.  ``priority``: its points' Dask priority (higher first)."""
+    return run_studies([name_or_path], outdir, quick, workers, scheduler, progress,
+                       priority)[0]
+
+
+def run_studies(
+    names: list[str | Path],
+    outdir: str | Path,
+    quick: bool = False,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[dict], None] | None = None,
+    priority: int = 0,
+    compute: bool = True,
+    extra: list[SweepConfig] | None = None,
+) -> list[dict]:
+    """:func:`run_study` for several studies into one folder: their points side by side on one
+    Dask client, then each drawn in turn (an ``overlay`` study listed first is drawn on the
+    one that names it).  ``compute=False``: draw what the stores hold; ``extra``: other sweep
+    configs computed alongside (not drawn; ``SweepStore.open`` reads their stores)."""
     folder = Path(outdir)
     folder.mkdir(parents=True, exist_ok=True)
-    config = read_sweep_config(_write_config(study, tables, folder))
+    loaded = [load_study(name, quick) for name in names]
+    configs = [read_sweep_config(_write_config(study, tables, folder))
+               for study, tables in loaded]  # fmt: skip
+    extra = list(extra or [])
     if compute:
-        store = run_sweep(config, workers=workers, scheduler=scheduler, progress=progress,
-                          priority=priority)
+        stores = run_sweeps(configs + extra, workers=workers, scheduler=scheduler,
+                            progress=progress, priority=priority)  # fmt: skip
     else:
-        store = SweepStore.open(config)
-    figure, table = plot_study(store, study, folder) if draw else (None, None)
-    return {"config": str(config.path), "store": str(config.out),
-            "figure": None if figure is None else str(figure),
-            "table": None if table is None else str(table), "status": store.status(config)}
+        stores = [SweepStore.open(config) for config in configs + extra]
+    out = []
+    for (study, _), config, store in zip(loaded, configs, stores, strict=False):
+        figure, table = plot_study(store, study, folder)
+        out.append({"config": str(config.path), "store": str(config.out), "figure": str(figure),
+                    "table": str(table), "status": store.status(config)})  # fmt: skip
+    return out
 
 
 def _get(point: dict, key: str):
@@ -363,13 +383,24 @@ def _draw_runs(axes, ys, rows, study, legend_curves: bool = True) -> dict:
     return fits
 
 
-def period_fit(lam, periods) -> dict | None:
-    """``T = c (lam - lam_c)^(-p)`` by least squares in ``log T`` (three or more periods;
-    ``None`` otherwise): near a saddle-node (SPEC §14) ``p = 1/2``."""
+def period_fit(lam, periods, lambda_c: float | None = None) -> dict | None:
+    """``T = c (lam - lam_c)^(-p)`` by least squares in ``log T``: near a saddle-node (SPEC §14)
+    ``p = 1/2``.  With ``lambda_c`` free, three or more periods are needed; given (the fold
+    located on the branch), two, and the fit is linear in ``log(lam - lambda_c)``.  ``None``
+    when there are too few (or, with ``lambda_c`` given, a run at or below it)."""
     from scipy.optimize import least_squares
 
     pts = [(float(x), float(t)) for x, t in zip(lam, periods, strict=True)
            if t is not None and np.isfinite(t) and t > 0]  # fmt: skip
+    if lambda_c is not None:
+        if len(pts) < 2 or min(x for x, _ in pts) <= lambda_c:
+            return None
+        x, t = np.array(pts).T
+        slope, intercept = np.polyfit(np.log(x - lambda_c), np.log(t), 1)
+        residual = intercept + slope * np.log(x - lambda_c) - np.log(t)
+        return {"c": float(np.exp(intercept)), "lambda_c": float(lambda_c), "p": float(-slope),
+                "points": len(pts), "lambda_c_fixed": True,
+                "rms_log_residual": float(np.sqrt(np.mean(residual**2)))}  # fmt: skip
     if len(pts) < 3:
         return None
     x, t = np.array(pts).T
@@ -384,6 +415,7 @@ def period_fit(lam, periods) -> dict | None:
     r = least_squares(residual, q0, bounds=([1e-12, -np.inf, 0.0], [np.inf, lo, 5.0]))
     c, lc, p = r.x
     return {"c": float(c), "lambda_c": float(lc), "p": float(p), "points": len(pts),
+            "lambda_c_fixed": False,
             "rms_log_residual": float(np.sqrt(np.mean(r.fun**2)))}  # fmt: skip
 
 

@@ -83,6 +83,8 @@ __all__ = [
     "load",
     "read_sweep_config",
     "run_sweep",
+    "run_sweeps",
+    "task_key",
 ]
 
 log = logging.getLogger(__name__)
@@ -622,36 +624,53 @@ def run_sweep(
     A point's Dask key is :func:`task_key`: sweeps sharing a scheduler compute an identical
     point once and never mix up two that differ only in their options.
     """
+    return run_sweeps([config], workers, scheduler, progress, priority)[0]
+
+
+def run_sweeps(
+    configs: list[SweepConfig],
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: Callable[[dict], None] | None = None,
+    priority: int = 0,
+) -> list[SweepStore]:
+    """:func:`run_sweep` for several sweeps at once: their points side by side on one client
+    (one cluster), each recorded in its own store as it completes.  Returns the stores."""
     from distributed import as_completed
 
-    store = SweepStore.open(config)
-    todo = [p for p in config.points if store.records.get(p.key, {}).get("status") != "done"]
-    total = len(config.points)
-    log.info("sweep %s: %d points, %d to do", config.path, total, len(todo))
+    stores = [SweepStore.open(config) for config in configs]
+    todo = []  # (config index, point)
+    for i, (config, store) in enumerate(zip(configs, stores, strict=True)):
+        points = [p for p in config.points
+                  if store.records.get(p.key, {}).get("status") != "done"]  # fmt: skip
+        log.info("sweep %s: %d points, %d to do", config.path, len(config.points), len(points))
+        todo += [(i, p) for p in points]
     if not todo:
-        return store
-    store.write()  # the store exists (and is writable) before any work
+        return stores
+    for i in sorted({i for i, _ in todo}):
+        stores[i].write()  # the store exists (and is writable) before any work
     client, cluster = _client(workers, scheduler)
     futures = {}
     try:
-        disc = config.discretisation.to_dict()
-        for p in todo:
-            future = client.submit(run_point, config.task, p.to_dict(), disc, config.options,
+        for i, p in todo:
+            config = configs[i]
+            future = client.submit(run_point, config.task, p.to_dict(),
+                                   config.discretisation.to_dict(), config.options,
                                    config.settings, key=task_key(config, p),
                                    priority=priority, pure=False)  # fmt: skip
-            futures[future] = p.key
+            futures[future] = (i, p)
         for future in as_completed(futures):
-            key = futures[future]
+            i, p = futures[future]
             try:
                 entry = future.result()
             except Exception as err:
-                physics = next(p for p in todo if p.key == key).to_dict()
                 entry = {"status": "failed", "error": f"{type(err).__name__}: {err}",
-                         "physics": physics}  # fmt: skip
-            store.record(key, entry)
+                         "physics": p.to_dict()}  # fmt: skip
+            stores[i].record(p.key, entry)
             if progress is not None:
-                progress({"key": key, "status": entry["status"], **store.status(config),
-                          "total": total, "seconds": entry.get("seconds")})  # fmt: skip
+                progress({"key": p.key, "status": entry["status"],
+                          **stores[i].status(configs[i]), "total": len(configs[i].points),
+                          "seconds": entry.get("seconds"), "sweep": str(configs[i].path)})
     finally:
         # cancel only what is still pending (Ctrl-C, an error): cancelling finished futures
         # sends the scheduler messages that it answers after the client has closed
@@ -661,4 +680,4 @@ def run_sweep(
         client.close()
         if cluster is not None:
             cluster.close()
-    return store
+    return stores
