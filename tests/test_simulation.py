@@ -411,3 +411,21 @@ def test_only_settled_periods_are_counted():
     wrapped = (angle + np.pi / 2) % np.pi - np.pi / 2
     # 8 passages through -pi/2 in t < 30: 7 half turns between them, all equal
     assert settled_periods(tt, wrapped) == 7
+
+
+def test_a_run_stopped_on_settled_periods_is_classified_from_the_whole_run():
+    """A TR run stopped once two periods settled (t = 5.8 at period 2.388: three minima, as the
+    quick report's chi = 6, lam = 9 run at N = 4) has one swing in its last half: its regime
+    comes from the whole run's swings (sustained: TR; damped by 30 % a period: TT), not
+    "undetermined"."""
+    from vesicle.analysis import settled_periods
+
+    t = np.arange(0.0, 5.80001, 0.1)
+    phase = 2 * np.pi * (t + 0.891) / 2.388  # minima at t = 0.9, 3.29, 5.68
+    sustained = 0.05 + 0.1 * np.sin(phase)
+    assert settled_periods(t, sustained) == 2  # what stopped the run
+    tr = classify_regime(t, sustained)
+    assert tr.name == "TR" and "over the run" in tr.detail
+    assert tr.period == pytest.approx(2.388, rel=1e-3)
+    damped = 0.05 + 0.1 * np.exp(-np.log(1 / 0.7) * t / 2.388) * np.sin(phase)
+    assert classify_regime(t, damped).name == "TT"

@@ -258,10 +258,18 @@ def classify_regime(
             decay = float(np.exp(fit.omega_I * (tl[-1] - tl[0])))
         except ValueError:  # too few periods to fit: compare the first and last swings
             amp = [np.ptp(p[(tl >= a) & (tl <= b)]) for a, b in pairwise(tm)]
+            where = "the tail"
+            if len(amp) < 2 or amp[0] <= 0:  # of the whole run, then: a run stopped once its
+                every = refined_minima(t, psi, local_minima(psi))  # periods settled may have
+                amp = [np.ptp(psi[(t >= a) & (t <= b)]) for a, b in pairwise(every)]  # one
+                where = "the run"  # swing in its last half
             if len(amp) < 2 or amp[0] <= 0:
                 detail = "oscillation of psi, too few periods to tell damped from sustained"
                 return Regime("undetermined", period, tm, detail + "; run longer")
             decay = amp[-1] / amp[0]
+            if decay >= 0.8:
+                detail = f"sustained oscillation of psi (x{decay:.2f} over {where})"
+                return Regime("TR", period, tm, detail)
         if decay < 0.8:
             return Regime(
                 "TT", period, tm, f"damped oscillation of psi (x{decay:.2f} over the tail)"

@@ -19,13 +19,27 @@ laptop and on a cluster.
 from __future__ import annotations
 
 import logging
+import os
 from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 
-__all__ = ["executor"]
+__all__ = ["executor", "local_cluster"]
 
 log = logging.getLogger(__name__)
+
+
+def local_cluster(workers: int):
+    """A Dask ``LocalCluster`` of ``workers`` one-thread processes, each assembling its layer
+    potentials on one thread (``VESICLE_THREADS=1`` in their environment unless this process
+    sets it): a process per core.  Two ring threads in each of two workers on two cores made
+    every sweep point about 2x slower (measured 2026-12-03: 30 s against 14.4 s a branch of the
+    quick ``stress-split``; ``python benchmarks/run.py dask``)."""
+    from distributed import LocalCluster  # ~1 s to import: only here
+
+    env = {"VESICLE_THREADS": os.environ.get("VESICLE_THREADS", "1")}
+    return LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
+                        dashboard_address=None, env=env)  # fmt: skip
 
 
 @contextmanager
@@ -41,12 +55,10 @@ def executor(workers: int = 1, scheduler: str | None = None) -> Iterator[Executo
             yield pool
         return
     # distributed is imported only when asked for: it costs ~1 s at start-up
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler == "local":
-        cluster = LocalCluster(
-            n_workers=int(workers), threads_per_worker=1, processes=True, dashboard_address=None
-        )
+        cluster = local_cluster(int(workers))
         log.info("started a Dask LocalCluster of %d workers", workers)
         try:
             with Client(cluster) as client:

@@ -69,6 +69,7 @@ from .dynamics import RunParameters
 from .ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 from .io import open_file, read_run, stamp, write_atomically
 from .neutral import neutral_curve
+from .parallel import local_cluster
 from .parameters import Discretisation, Physics, stable_key
 from .simulation import load_parameters, simulate
 from .stability import stability
@@ -585,13 +586,12 @@ def _plain(value):
 def _client(workers: int | None, scheduler: str | None) -> tuple:
     """A Dask client: a LocalCluster of ``workers`` one-thread processes (default: the cores),
     or the scheduler at ``scheduler``."""
-    from distributed import Client, LocalCluster  # ~1 s to import: only here
+    from distributed import Client  # ~1 s to import: only here
 
     if scheduler is not None:
         return Client(scheduler), None
     n = workers or max(1, os.cpu_count() or 1)
-    cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                           dashboard_address=None)  # fmt: skip
+    cluster = local_cluster(n)
     return Client(cluster), cluster
 
 

@@ -56,6 +56,14 @@ KERNELS = ("single", "double")
 
 
 def _default_workers() -> int:
+    """Assembly threads when not given: ``VESICLE_THREADS`` if set (the sweep engine's workers
+    set it to 1: a process per core), else the cores, at most 2."""
+    env = os.environ.get("VESICLE_THREADS", "").strip()
+    if env:
+        try:
+            return max(1, int(env))
+        except ValueError:
+            raise ValueError(f"VESICLE_THREADS must be a whole number, got {env!r}") from None
     return max(1, min(2, os.cpu_count() or 1))
 
 
