@@ -47,6 +47,7 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     assert call["concurrent"] and call["items"] == ["table1", "fig2", "broken", "killed"]
     assert "its process ended without a result (exit code -9)" in text
     assert "together on one Dask cluster" in text
+    assert "<th>paper omega_I (32x64)</th>" in text  # Table 1 drawn on the page
     rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
     assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
     record = tmp_path / "table1" / "item.json"
