@@ -32,8 +32,8 @@ import numpy as np
 import scipy.linalg
 from numba import njit
 from scipy.sparse.linalg import LinearOperator, gmres
-from threadpoolctl import threadpool_limits
 
+from .blas import blas_threads
 from .solver import FlowResult, VelocityTensionSolver, _Counter
 from .sphere.bases import FullBasis
 from .sphere.transforms import transform
@@ -104,7 +104,7 @@ class CoupledBlocks:
         if workers <= 1:
             return fn(x)
         parts = np.array_split(x, workers)
-        with threadpool_limits(limits=1, user_api="blas"), ThreadPoolExecutor(workers) as pool:
+        with blas_threads(1), ThreadPoolExecutor(workers) as pool:
             return np.concatenate(list(pool.map(fn, parts)))
 
     def _coefficient_vectors(self, u: np.ndarray) -> np.ndarray:
@@ -166,7 +166,7 @@ class FactorisedSystem(CoupledBlocks):
         start = time.perf_counter()
         super().__init__(solver)
         shape = self.shape
-        with threadpool_limits(limits=self.workers, user_api="blas"):
+        with blas_threads(self.workers):
             if self.c != 0.0:
                 self._factor_uu()
             self._factor_schur()
@@ -290,7 +290,7 @@ def preconditioned_solve(
     b_u = solver.rhs()
     b = np.concatenate([(b_u * D).ravel(), np.zeros(nc)])
     counter = _Counter()
-    with threadpool_limits(limits=system.workers, user_api="blas"):
+    with blas_threads(system.workers):
         y, info = gmres(LinearOperator((nu + nc, nu + nc), matvec=matvec, dtype=float), b,
                         rtol=rtol, atol=0.0, restart=max_iterations, maxiter=1,
                         callback=counter, callback_type="pr_norm")  # fmt: skip

@@ -27,8 +27,8 @@ from functools import cached_property
 
 import numpy as np
 from scipy.sparse.linalg import LinearOperator
-from threadpoolctl import threadpool_limits
 
+from ..blas import blas_threads
 from ..sphere.transforms import transform
 from ..surface import Shape
 from .backends import get_backend
@@ -117,7 +117,7 @@ class LayerPotentials:
     # ------------------------------------------------------------ utilities
     def _map_rings(self, fn) -> list:
         rings = range(self.shape.grid.n_theta)
-        with threadpool_limits(limits=1, user_api="blas"):
+        with blas_threads(1):
             if self.workers == 1:
                 return [fn(i) for i in rings]
             with ThreadPoolExecutor(self.workers) as pool:
