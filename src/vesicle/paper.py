@@ -507,51 +507,51 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                            "cases": [list(c) for c in cases]}}  # fmt: skip
 
 
-#: The items.  ``cost``: CPU seconds of the quick report measured 2026-12-03 at N = 4 on 16x32
-#: (before the quick runs were shortened): only the order in which the concurrent report
-#: starts them (the longest first).
+#: The items.  ``cost``: the quick report's CPU seconds, measured 2026-12-03 at N = 4 on 12x24
+#: (its sweeps' points; the wall time of its direct computations, rounded): only the order in
+#: which the concurrent report submits their work (the longest first).
 ITEMS: list[Item] = [
     Item("table1", "Table 1", "most unstable mode against the shape degree N", _table1,
-         cost=17),
+         cost=30),
     Item("fig2", "Figures 2, 3, 10", "steady TT state, E_l spectra, most unstable modes",
-         _fig_spectrum, cost=7),
+         _fig_spectrum, cost=10),
     Item("fig4", "Figure 4", "TT inclination and deformation against chi",
-         _study_item("tt-shape-chi"), cost=260),
+         _study_item("tt-shape-chi"), cost=55),
     Item("fig5", "Figure 5", "TT inclination against lambda, Misbah's (3.6)",
-         _study_item("tt-shape-lambda"), cost=46),
+         _study_item("tt-shape-lambda"), cost=19),
     Item("fig6", "Figure 6", "TT inclination against the excess area",
-         _study_item("tt-excess-area"), cost=84),
+         _study_item("tt-excess-area"), cost=16),
     Item("fig7", "Figures 7, 13", "neutral curves and the S-Lambda plane",
          # quick: the paper's Figure 7 volumes, their Hopf part only (measured at N = 4 on 16x32
          # with the fold part, chi = 0.2 ... 10 and the type change located: 23 min for v = 0.95,
          # 31 min for 0.90, and v = 0.85 unresolved at that degree; from chi = 0.5: 5.4 and about
          # 18 min, chi = 0.5 being a fold at v = 0.90; the fold itself is fig8's)
          _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi="[1.0, 3.0, 10.0]",
-                       quick_vs=[0.95, 0.90]), cost=1500),
+                       quick_vs=[0.95, 0.90]), cost=100),
     Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8,
-         cost=123),
+         cost=120),
     Item("fig9", "Figure 9", "relaxation of psi from a perturbed start against the stability",
-         _fig9, cost=96),
+         _fig9, cost=200),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
-         _study_item("orbits", "stress-time"), cost=1300),
+         _study_item("orbits", "stress-time"), cost=500),
     Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
          "on Figure 7's neutral curves)",
-         _fig12, uses=("fig7", "fig8"), cost=1500),
+         _fig12, uses=("fig7", "fig8"), cost=680),
     Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda (TT branches; TR and TU runs "
          "averaged over whole periods)", _study_item("stress-lambda-runs", "stress-lambda"),
-         cost=570),
-    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi"), cost=415),
+         cost=220),
+    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi"), cost=80),
     Item("fig17", "Figures 17, 20", "stress decomposition and the equivalent ellipsoid",
-         _study_item("stress-split"), cost=174),
+         _study_item("stress-split"), cost=30),
     Item("fig18", "Figures 18, 19, 21", "the equivalent ellipsoid's stress maps",
-         _study_item("tt-shape-lambda", "ellipsoid-maps"), cost=150),
+         _study_item("tt-shape-lambda", "ellipsoid-maps"), cost=60),
     Item("fig22", "Figure 22",
          "neutral curves of the vorticity-aligned branch (dashed) beside the in-plane ones",
          _neutral_item([0.95, 0.90], "neutral", orientation="vorticity",
                        quick_chi="[2.0, 4.0, 8.0]", quick_vs=[0.95], beside="fig7"),
-         uses=("fig7",), cost=212),
+         uses=("fig7",), cost=50),
     Item("fig23", "Figures 23, 24", "tilted starts: orbits of the principal axes", _fig23,
-         cost=850),
+         cost=300),
 ]
 
 
