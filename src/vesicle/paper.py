@@ -18,6 +18,7 @@ import csv
 import html
 import json
 import logging
+import os
 import time
 import tomllib
 from collections.abc import Callable
@@ -629,14 +630,14 @@ def _compute_item(outdir: Path, item: Item, quick: bool, options: dict,
 def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
                   progress: Callable[[str], None] | None) -> dict:
     content.update(quick=quick, vesicle_version=__version__)
-    write_atomically_text(outdir / item.key / "item.json",
+    _write_text_atomically(outdir / item.key / "item.json",
                           json.dumps(content, indent=1, default=str))  # fmt: skip
     if progress is not None:
         progress(f"{item.title}: {content['status']} in {content['seconds']:.0f} s")
     return content
 
 
-def write_atomically_text(path: Path, text: str) -> None:
+def _write_text_atomically(path: Path, text: str) -> None:
     """``path`` replaced by ``text`` at once (a crash leaves the old file or the new one)."""
     tmp = path.with_name(path.name + ".tmp")
     tmp.write_text(text)
@@ -679,12 +680,11 @@ def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: 
 
     import cloudpickle
 
-    from .sweep import _client
+    from .parallel import local_cluster
 
     cluster = None
     if options.get("scheduler") is None:
-        client, cluster = _client(options.get("workers"), None)
-        client.close()
+        cluster = local_cluster(options.get("workers") or max(1, os.cpu_count() or 1))
         options = {**options, "scheduler": cluster.scheduler_address}
     options = {**options, "workers": None}
     context = multiprocessing.get_context("spawn")
@@ -747,7 +747,7 @@ def _record_report(outdir: Path, todo: list[Item], quick: bool, concurrent: bool
                     "concurrent": concurrent, "workers": options.get("workers"),
                     "scheduler": options.get("scheduler"), "vesicle_version": __version__,
                     "finished": time.strftime("%Y-%m-%d %H:%M:%S")})  # fmt: skip
-    write_atomically_text(path, json.dumps({"calls": history}, indent=1))
+    _write_text_atomically(path, json.dumps({"calls": history}, indent=1))
 
 
 def _rel(path: str, outdir: Path) -> str:
