@@ -616,15 +616,23 @@ def _compute_item(outdir: Path, item: Item, quick: bool, options: dict,
     folder.mkdir(exist_ok=True)
     if progress is not None:
         progress(f"{item.title}: computing ({item.what})")
+    content = _run_compute(item.compute, folder, quick, options)
+    content["seconds"] += seconds
+    return _write_record(outdir, item, content, quick, progress)
+
+
+def _run_compute(compute: Callable, folder: Path, quick: bool, options: dict) -> dict:
+    """``compute``'s content with its status ("done", "failed" when it lists failures, or
+    "error" with the exception, which is logged) and its seconds."""
     t0 = time.perf_counter()
     try:
-        content = item.compute(folder, quick, options)
+        content = compute(folder, quick, options)
         content["status"] = "failed" if content.get("failures") else "done"
     except Exception as err:  # recorded on the page; the other items go on
-        log.exception("%s failed", item.title)
+        log.exception("%s failed", folder.name)
         content = {"status": "error", "error": f"{type(err).__name__}: {err}"}
-    content["seconds"] = seconds + time.perf_counter() - t0
-    return _write_record(outdir, item, content, quick, progress)
+    content["seconds"] = time.perf_counter() - t0
+    return content
 
 
 def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
@@ -652,15 +660,7 @@ def _child_main(conn, payload: bytes, folder: str, quick: bool, options: dict,
 
     logging.basicConfig(level=level, format=f"{Path(folder).name}: %(name)s: %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)
-    t0 = time.perf_counter()
-    try:
-        content = cloudpickle.loads(payload)(Path(folder), quick, options)
-        content["status"] = "failed" if content.get("failures") else "done"
-    except Exception as err:  # recorded on the page; the other items go on
-        log.exception("%s failed", folder)
-        content = {"status": "error", "error": f"{type(err).__name__}: {err}"}
-    content["seconds"] = time.perf_counter() - t0
-    conn.send(content)
+    conn.send(_run_compute(cloudpickle.loads(payload), Path(folder), quick, options))
     conn.close()
 
 

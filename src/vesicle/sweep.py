@@ -267,11 +267,16 @@ class SweepConfig:
     settings: dict = field(default_factory=dict)  # "solver" (object), "run" (table)
     text: str = ""  # the file as given: stored with the results
 
+    def plain_settings(self, runs_dir: bool = True) -> dict:
+        """The settings as plain data (the solver object as its dict); ``runs_dir=False``
+        leaves out the run files' folder."""
+        return {k: (v.to_dict() if hasattr(v, "to_dict") else v)
+                for k, v in self.settings.items() if runs_dir or k != "runs_dir"}  # fmt: skip
+
     def fingerprint(self) -> str:
         """What every point of one store must share (task, discretisation, options, settings,
         fixed physics)."""
-        settings = {k: (v.to_dict() if hasattr(v, "to_dict") else v)
-                    for k, v in self.settings.items() if k != "runs_dir"}  # fmt: skip
+        settings = self.plain_settings(runs_dir=False)
         fixed = self.points[0].to_dict() if self.points else {}
         for key in TASKS[self.task].swept:
             fixed.pop(key, None)
@@ -599,11 +604,9 @@ def task_key(config: SweepConfig, point: Physics) -> str:
     """The Dask key of ``point`` of ``config``: a hash of everything that defines its work
     (task, parameters, resolution, options, settings; a run's file folder among them), the
     same for the same work in any sweep, different when anything differs."""
-    settings = {k: (v.to_dict() if hasattr(v, "to_dict") else v)
-                for k, v in config.settings.items()}  # fmt: skip
     work = {"task": config.task, "point": point.to_dict(),
             "discretisation": config.discretisation.to_dict(), "options": config.options,
-            "settings": settings}  # fmt: skip
+            "settings": config.plain_settings()}  # fmt: skip
     return "vesicle-point-" + stable_key(json.loads(json.dumps(work, default=str)), 20)
 
 
