@@ -44,3 +44,56 @@ def test_vorticity_tt_and_in_plane():
     flat = np.stack([np.cos(0.3 * T), np.zeros_like(T), np.sin(0.3 * T)], axis=1)
     assert classify_orbit(T, _frames(flat)).name == "in-plane"
     assert classify_orbit(T[:3], _frames(flat[:3])).name == "undetermined"
+
+
+def _tumbling_tilted(t: np.ndarray, period: float, tilt: np.ndarray):
+    """A frame tumbling in the x-z plane (half-turn period ``period``) and turned out of it by
+    the angle ``tilt(t)`` about its short axis: then the out-of-plane angle is ``tilt`` exactly.
+    Returns (psi wrapped to (-pi/2, pi/2], frames (t, 3, 3))."""
+    phi = 0.3 - np.pi * t / period  # angle of the long axis from x in the x-z plane
+    c, s = np.cos(tilt), np.sin(tilt)
+    long_in = np.stack([np.cos(phi), np.zeros_like(t), np.sin(phi)], axis=1)
+    y = np.tile([0.0, 1.0, 0.0], (t.size, 1))
+    short = np.cross(long_in, y)
+    frames = np.stack([c[:, None] * long_in + s[:, None] * y,
+                       -s[:, None] * long_in + c[:, None] * y, short], axis=1)  # fmt: skip
+    psi = np.arctan(np.tan(phi))  # the x-z inclination, wrapped
+    return psi, frames
+
+
+def test_tilt_growth_of_a_tumbling_orbit():
+    """Expected numbers by construction: the angle is 1e-3 exp(sigma t) times a factor that
+    repeats every half turn, so sampling once per half turn sees sigma exactly (a straight line
+    through every saved step would not: the factor swings by +-50 % within each turn)."""
+    from vesicle.analysis import out_of_plane_angle, tilt_growth
+
+    t = np.linspace(0.0, 30.0, 6001)
+    period, sigma = 3.0, -0.05
+    tilt = 1e-3 * np.exp(sigma * t) * (1.0 + 0.5 * np.sin(2 * np.pi * t / period + 0.4))
+    psi, frames = _tumbling_tilted(t, period, tilt)
+    frames[1::2, 1] *= -1.0  # eigenvector signs are arbitrary
+    assert out_of_plane_angle(frames) == pytest.approx(tilt, rel=1e-9, abs=1e-15)
+    g = tilt_growth(t, psi, frames)
+    # phi passes -pi/2 - k pi at t = (0.3 + pi/2 + k pi) period / pi: 1.786, 4.786, ..., 28.786
+    assert g.times == pytest.approx((0.3 + np.pi / 2) * period / np.pi + period * np.arange(10))
+    assert g.rate == pytest.approx(sigma, rel=1e-4)
+    assert g.per_half_turn == pytest.approx(np.exp(sigma * period), rel=1e-4)
+    assert "decays" in g.detail
+    grow = tilt_growth(t, psi, _tumbling_tilted(t, period, 1e-3 * np.exp(0.02 * t))[1])
+    assert grow.rate == pytest.approx(0.02, rel=1e-4) and "grows" in grow.detail
+
+
+def test_tilt_growth_in_the_plane_and_without_tumbling():
+    from vesicle.analysis import tilt_growth
+
+    t = np.linspace(0.0, 30.0, 3001)
+    psi, frames = _tumbling_tilted(t, 3.0, np.zeros_like(t))
+    flat = tilt_growth(t, psi, frames)
+    assert flat.rate is None and "in the plane" in flat.detail
+    # no tumbling (psi steady): a line through the last half of the saved steps
+    still = np.full_like(t, 0.3)
+    frames = np.stack([_tumbling_tilted(t[:1], 3.0, np.array([1e-2 * np.exp(-0.1 * x)]))[1][0]
+                       for x in t])  # fmt: skip
+    g = tilt_growth(t, still, frames)
+    assert g.per_half_turn is None and g.rate == pytest.approx(-0.1, rel=1e-6)
+    assert "last half" in g.detail

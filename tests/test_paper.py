@@ -1,8 +1,10 @@
 """`vesicle paper` (issue 16): the report's page, its images and data, resume, failures."""
 
+import csv
 import json
 import re
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -92,6 +94,21 @@ def test_tilted_starts_item_writes_its_orbits_and_figures(tmp_path):
     build_report(tmp_path, quick=True, items=[item], options={**options, "t_end": 0.7})
     t = read_run(run_file).series["t"]
     assert t[-1] == pytest.approx(0.7) and t[0] == 0.0
+
+
+def test_tilted_starts_item_measures_tumbling_against_tilt(tmp_path):
+    """The in-plane TU at lam = 20 against a small tilt: one short run (chi = 8, tilted by 9
+    degrees, to t = 0.3): its row starts at the tilt given (9 degrees = 0.15708 rad: the start
+    is the spheroid turned about its short in-plane axis) and carries a growth rate."""
+    item = next(i for i in ITEMS if i.key == "fig23")
+    options = {"grid": 12, "tilted": [], "tilted_tu": [(20.0, 8.0, 9.0)], "tumbling_t_end": 0.3}
+    build_report(tmp_path, quick=True, items=[item], options=options)
+    with open(tmp_path / "fig23" / "fig23_tumbling_tilt.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 1 and float(rows[0]["chi"]) == 8.0
+    assert float(rows[0]["angle_start"]) == pytest.approx(np.radians(9.0), rel=1e-6)
+    assert np.isfinite(float(rows[0]["rate"])) and "last half" in rows[0]["detail"]
+    assert (tmp_path / "fig23" / "tu_lam20_chi8_tilt9_N4_12_axes_projection.png").is_file()
 
 
 def test_runs_are_drawn_on_the_neutral_curves_of_their_degree(tmp_path):

@@ -22,16 +22,19 @@ __all__ = [
     "DampedOscillation",
     "Regime",
     "ShapeDiagnostics",
+    "TiltGrowth",
     "classify_orbit",
     "classify_regime",
     "continuous_axes",
     "diagnose",
     "fit_damped_oscillation",
     "local_minima",
+    "out_of_plane_angle",
     "ray_radius",
     "recentered",
     "settled_periods",
     "summarize",
+    "tilt_growth",
 ]
 
 log = logging.getLogger(__name__)
@@ -384,6 +387,61 @@ def classify_orbit(t: np.ndarray, axes: np.ndarray, tail: float = 0.5) -> Orbit:
                  f"{py}, {pz}: run longer")  # fmt: skip
 
 
+def out_of_plane_angle(axes: np.ndarray) -> np.ndarray:
+    """Angle (rad) from the vorticity axis y to the principal axis nearest it, at each saved step
+    (``axes``: (t, 3, 3), the axis vectors in rows): zero while the shape is symmetric about the
+    shear plane (one principal axis lies along y), the tilt of a shape turned out of it."""
+    axes = np.asarray(axes, dtype=float)
+    nearest = np.take_along_axis(axes, np.abs(axes[..., 1]).argmax(axis=-1)[..., None, None], -2)
+    nearest = nearest[..., 0, :]  # accurate for small angles, unlike arccos(|a_y|):
+    return np.arctan2(np.hypot(nearest[..., 0], nearest[..., 2]), np.abs(nearest[..., 1]))
+
+
+@dataclass(frozen=True)
+class TiltGrowth:
+    """Result of :func:`tilt_growth`: how the out-of-plane angle of a run grows or decays."""
+
+    times: np.ndarray  # where the angle was sampled
+    angles: np.ndarray  # the out-of-plane angle there (rad)
+    rate: float | None  # d ln(angle) / dt, a least-squares line through ln(angles)
+    per_half_turn: float | None  # exp(rate * the mean half-turn period): the factor per TU
+    detail: str
+
+
+def tilt_growth(t: np.ndarray, psi: np.ndarray, axes: np.ndarray) -> TiltGrowth:
+    """Growth or decay of the out-of-plane angle (:func:`out_of_plane_angle`) of a run started
+    with a small tilt (SPEC §13: is the in-plane tumbling orbit stable against tilt?).
+
+    In TU the angle is sampled once per half turn at the same phase (psi through -pi/2,
+    :func:`half_turn_times`; the in-plane orbit repeats every half turn, so the samples see its
+    Floquet growth, not the swing within a turn) and ``ln angle`` is fitted by a straight line in
+    t: ``rate`` per unit time, ``per_half_turn`` the factor per half turn.  At least three half
+    turns are needed; with fewer, or without tumbling, the line is fitted through every saved
+    step of the last half and ``per_half_turn`` is None.  A run that never leaves the plane (angle
+    below 1e-12 anywhere in the fitted samples) has ``rate`` None.
+    """
+    t, psi = np.asarray(t, float), np.asarray(psi, float)
+    angle = out_of_plane_angle(axes)
+    times = half_turn_times(t, psi) if t.size >= 2 else np.array([])
+    if times.size >= 3:
+        samples = np.interp(times, t, angle)
+        half = float(np.mean(np.diff(times)))
+        how = f"sampled at {times.size} half turns (period {half:.4g})"
+    else:
+        last = t >= t[0] + 0.5 * (t[-1] - t[0]) if t.size else np.array([], bool)
+        times, samples, half = t[last], angle[last], None
+        how = f"fitted over the last half ({times.size} saved steps; fewer than 3 half turns)"
+    if times.size < 2 or np.min(samples) < 1e-12:
+        return TiltGrowth(times, samples, None, None, how + "; the angle is zero: in the plane")
+    rate = float(np.polyfit(times - times[0], np.log(samples), 1)[0])
+    factor = float(np.exp(rate * half)) if half is not None else None
+    verdict = "grows" if rate > 0 else "decays"
+    detail = f"the out-of-plane angle {verdict} at {rate:.3g} per unit time; {how}"
+    if factor is not None:
+        detail += f", x{factor:.4g} per half turn"
+    return TiltGrowth(times, samples, rate, factor, detail)
+
+
 @dataclass(frozen=True)
 class DampedOscillation:
     """``psi(t) = psi_inf + amplitude exp(omega_I t) cos(omega_R t + phase)``, fitted."""
@@ -487,7 +545,9 @@ def summarize(run) -> dict:
     ``corrections`` the total relative amounts the drift control removed.  ``oscillation``: when
     psi oscillates (a damped TT approach or TR), the fit of
     ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the second psi minimum on
-    (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.
+    (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.  ``out_of_plane``: the
+    angle from y to the principal axis nearest it at the first and last saved steps and its
+    growth rate (:func:`vesicle.analysis.tilt_growth`; per half turn in TU).
     """
     s = run.series
     t = s["t"]
@@ -526,6 +586,14 @@ def summarize(run) -> dict:
             }
         except ValueError as err:
             log.info("no damped-oscillation fit: %s", err)
+    tilt = tilt_growth(t, s["psi"], s["axes"])
+    out_of_plane = {
+        "angle_start": float(out_of_plane_angle(s["axes"][:1])[0]),
+        "angle_end": float(out_of_plane_angle(s["axes"][-1:])[0]),
+        "rate": tilt.rate,
+        "per_half_turn": tilt.per_half_turn,
+        "detail": tilt.detail,
+    }
     orbit = None
     if regime.name == "out-of-plane":  # the class of the long axis's 3-D orbit (SPEC §13)
         o = classify_orbit(t, s["axes"])
@@ -536,6 +604,7 @@ def summarize(run) -> dict:
         "stopped": stopped,
         "period": regime.period,
         "orbit": orbit,
+        "out_of_plane": out_of_plane,
         "t_final": float(t[-1]),
         "saved_steps": run.n_saved,
         "steps": ck.get("steps"),

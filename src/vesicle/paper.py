@@ -454,6 +454,11 @@ TILTED = [(11.0, 36.0), (11.0, 54.0), (11.0, 72.0), (11.0, 90.0), (10.5, 54.0), 
 #: one run to t = 60 took about 12 min; to t = 30, lam = 11 showed the precession about y,
 #: period 4.98, over its last half).
 TILTED_QUICK = [(11.0, 54.0), (9.0, 54.0)]
+#: Issue 15: is the in-plane TU orbit at lam = 20 stable against a small tilt?  (lam, chi, tilt
+#: in degrees) at v = 0.95; each run to t = 60 / chi, about seven half turns (chi T is about 8.5
+#: at lam = 20, Fig. 12), saved about 85 times a half turn.
+TILTED_TU = [(20.0, 0.2, 9.0), (20.0, 8.0, 9.0)]
+TILTED_TU_QUICK: list[tuple[float, float, float]] = []
 
 
 def _tilted_run(path: str, params) -> dict:
@@ -489,8 +494,18 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                             save_every=0.05, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
                             rtol=1e-3, save_fields=False))
              for name, (lam, tilt) in zip(names, cases, strict=True)]  # fmt: skip
+    tu_cases = options.get("tilted_tu", TILTED_TU_QUICK if quick else TILTED_TU)
+    tu_names = [f"tu_lam{lam:g}_chi{chi:g}_tilt{tilt:g}_N{degree}_{grid}"
+                for lam, chi, tilt in tu_cases]  # fmt: skip
+    calls += [(str(folder / f"{name}.h5"),
+               RunParameters(v=0.95, lam=lam, chi=chi, grid=grid, degree=degree,
+                             t_end=float(options.get("tumbling_t_end", 60.0 / chi)),
+                             save_every=0.1 / chi, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
+                             rtol=1e-3, save_fields=False))
+              for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
+    summaries = _map(options, _tilted_run, calls)
     rows, figures = [], []
-    for name, (lam, tilt), s in zip(names, cases, _map(options, _tilted_run, calls), strict=True):
+    for name, (lam, tilt), s in zip(names, cases, summaries[: len(cases)], strict=True):
         orbit = s.get("orbit") or {}
         rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
                      "regime": s["regime"], "orbit": orbit.get("class"),
@@ -499,13 +514,29 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                      "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
         run = read_run(folder / f"{name}.h5")
         figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
-    return {"figures": figures, "tables": [_write_csv(folder / "fig23.csv", rows)],
-            "comparisons": [], "rows": rows,
+    tables = [_write_csv(folder / "fig23.csv", rows)]
+    tu_rows = []
+    for name, (lam, chi, tilt), s in zip(tu_names, tu_cases, summaries[len(cases):], strict=True):
+        o = s["out_of_plane"]
+        tu_rows.append({"lam": lam, "chi": chi, "tilt_deg": tilt, "regime": s["regime"],
+                        "half_turn_period": s["period"], "angle_start": o["angle_start"],
+                        "angle_end": o["angle_end"], "rate": o["rate"],
+                        "per_half_turn": o["per_half_turn"], "detail": o["detail"],
+                        "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+        run = read_run(folder / f"{name}.h5")
+        figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
+    if tu_rows:
+        tables.append(_write_csv(folder / "fig23_tumbling_tilt.csv", tu_rows))
+    return {"figures": figures, "tables": tables, "comparisons": [], "rows": rows,
+            "tumbling_tilt": tu_rows,
             "note": "orbit classes over the last half of each run: in-plane (then the psi regime "
-                    "decides TR or TU), vorticity-TT, precession about y, figure-8 about x",
+                    "decides TR or TU), vorticity-TT, precession about y, figure-8 about x; "
+                    "tumbling against tilt (fig23_tumbling_tilt.csv): the out-of-plane angle's "
+                    "growth per half turn of the in-plane TU",
             "parameters": {"v": 0.95, "chi": 4.0, "degree": degree, "grid": grid,
                            "t_end": t_end, "integrator": "ros34pw2", "rtol": 1e-3,
-                           "cases": [list(c) for c in cases]}}  # fmt: skip
+                           "cases": [list(c) for c in cases],
+                           "tumbling_cases": [list(c) for c in tu_cases]}}  # fmt: skip
 
 
 #: The items.  ``cost``: the quick report's CPU seconds, measured 2026-12-03 at N = 4 on 12x24

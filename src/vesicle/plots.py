@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .analysis import continuous_axes
+from .analysis import continuous_axes, out_of_plane_angle, tilt_growth
 from .io import RunData
 from .sphere.transforms import evaluate
 
@@ -262,11 +262,13 @@ def _plot_axes_sphere(run: RunData, path: Path, dpi: int) -> Path:
 def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
     """The 2-D companion of the sphere plot: the axes seen along the vorticity axis (their x-z
     projections, the unit circle drawn) and the long axis's polar angle from y and azimuth about
-    y against time (the coordinates :func:`vesicle.analysis.classify_orbit` reads)."""
+    y against time (the coordinates :func:`vesicle.analysis.classify_orbit` reads), and the
+    out-of-plane angle on a log scale with its growth (:func:`vesicle.analysis.tilt_growth`: the
+    samples once per half turn in TU and the fitted line)."""
     axes = continuous_axes(_series(run, "axes"))
     t = np.asarray(run.series["t"], dtype=float)
-    fig = _figure((10.0, 4.6))
-    left, right = fig.subplots(1, 2)
+    fig = _figure((14.5, 4.6))
+    left, right, tilt_ax = fig.subplots(1, 3)
     circle = np.linspace(0.0, 2.0 * np.pi, 200)
     left.plot(np.cos(circle), np.sin(circle), color="0.8", lw=0.8)
     for k, name in enumerate(("long", "middle", "short")):
@@ -287,6 +289,20 @@ def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
     right.grid(alpha=0.3)
     right.legend(loc="best", fontsize="small")
     right.set_title(_title(run, "long axis"), fontsize="medium")
+    angle = out_of_plane_angle(axes)
+    growth = tilt_growth(t, _series(run, "psi"), axes)
+    positive = angle > 0
+    tilt_ax.semilogy(t[positive], angle[positive], color="0.4", lw=0.8, label="angle")
+    if growth.rate is not None:
+        tilt_ax.semilogy(growth.times, growth.angles, "o", color="C0", ms=3, label="samples")
+        fit = growth.angles[0] * np.exp(growth.rate * (growth.times - growth.times[0]))
+        tilt_ax.semilogy(growth.times, fit, "--", color="C3", lw=1.0,
+                         label=f"rate {growth.rate:.3g}")  # fmt: skip
+    tilt_ax.set_xlabel("t")
+    tilt_ax.set_ylabel("out-of-plane angle (rad)")
+    tilt_ax.grid(alpha=0.3, which="both")
+    tilt_ax.legend(loc="best", fontsize="small")
+    tilt_ax.set_title("angle from y to the nearest principal axis", fontsize="medium")
     return _save(fig, path, dpi)
 
 
