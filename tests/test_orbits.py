@@ -97,3 +97,14 @@ def test_tilt_growth_in_the_plane_and_without_tumbling():
     g = tilt_growth(t, still, frames)
     assert g.per_half_turn is None and g.rate == pytest.approx(-0.1, rel=1e-6)
     assert "last half" in g.detail
+
+
+def test_tilt_growth_says_when_the_angle_is_not_small():
+    """A precession at 0.6 rad from y (the long axis nearest y) is an orbit, not a small tilt."""
+    from vesicle.analysis import tilt_growth
+
+    cone = np.stack([np.sin(0.6) * np.cos(2 * np.pi * T / 5), np.full_like(T, np.cos(0.6)),
+                     np.sin(0.6) * np.sin(2 * np.pi * T / 5)], axis=1)  # fmt: skip
+    g = tilt_growth(T, np.zeros_like(T), _frames(cone))
+    assert not g.small and "not a small tilt" in g.detail
+    assert g.angles == pytest.approx(0.6, rel=1e-9)

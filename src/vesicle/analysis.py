@@ -407,6 +407,12 @@ class TiltGrowth:
     per_half_turn: float | None  # exp(rate * the mean half-turn period): the factor per TU
     detail: str
 
+    @property
+    def small(self) -> bool:
+        """Whether every sampled angle is below 0.2 rad, where a growth rate means something (a
+        linear perturbation of an orbit in the plane) rather than a large orbit's swing."""
+        return bool(self.angles.size) and float(np.max(self.angles)) < 0.2
+
 
 def tilt_growth(t: np.ndarray, psi: np.ndarray, axes: np.ndarray) -> TiltGrowth:
     """Growth or decay of the out-of-plane angle (:func:`out_of_plane_angle`) of a run started
@@ -439,7 +445,11 @@ def tilt_growth(t: np.ndarray, psi: np.ndarray, axes: np.ndarray) -> TiltGrowth:
     detail = f"the out-of-plane angle {verdict} at {rate:.3g} per unit time; {how}"
     if factor is not None:
         detail += f", x{factor:.4g} per half turn"
-    return TiltGrowth(times, samples, rate, factor, detail)
+    growth = TiltGrowth(times, samples, rate, factor, detail)
+    if not growth.small:
+        growth = TiltGrowth(times, samples, rate, factor, detail + "; the angle reaches "
+                            f"{np.max(samples):.2g} rad: not a small tilt")  # fmt: skip
+    return growth
 
 
 @dataclass(frozen=True)

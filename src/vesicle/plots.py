@@ -293,8 +293,9 @@ def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
     growth = tilt_growth(t, _series(run, "psi"), axes)
     positive = angle > 0
     tilt_ax.semilogy(t[positive], angle[positive], color="0.4", lw=0.8, label="angle")
-    if growth.rate is not None:
-        tilt_ax.semilogy(growth.times, growth.angles, "o", color="C0", ms=3, label="samples")
+    if growth.rate is not None and (growth.per_half_turn is not None or growth.small):
+        if growth.per_half_turn is not None:  # once per half turn
+            tilt_ax.semilogy(growth.times, growth.angles, "o", color="C0", ms=3, label="samples")
         fit = growth.angles[0] * np.exp(growth.rate * (growth.times - growth.times[0]))
         tilt_ax.semilogy(growth.times, fit, "--", color="C3", lw=1.0,
                          label=f"rate {growth.rate:.3g}")  # fmt: skip
