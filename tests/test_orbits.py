@@ -48,7 +48,8 @@ def test_vorticity_tt_and_in_plane():
 
 def _tumbling_tilted(t: np.ndarray, period: float, tilt: np.ndarray):
     """A frame tumbling in the x-z plane (half-turn period ``period``) and turned out of it by
-    the angle ``tilt(t)`` about its short axis: then the out-of-plane angle is ``tilt`` exactly.
+    the angle ``tilt(t)`` about its short axis: then the long axis's elevation above the plane,
+    the out-of-plane angle, is ``tilt`` exactly.
     Returns (psi wrapped to (-pi/2, pi/2], frames (t, 3, 3))."""
     phi = 0.3 - np.pi * t / period  # angle of the long axis from x in the x-z plane
     c, s = np.cos(tilt), np.sin(tilt)
@@ -100,11 +101,11 @@ def test_tilt_growth_in_the_plane_and_without_tumbling():
 
 
 def test_tilt_growth_says_when_the_angle_is_not_small():
-    """A precession at 0.6 rad from y (the long axis nearest y) is an orbit, not a small tilt."""
+    """A precession at 0.6 rad from y (elevation pi/2 - 0.6) is an orbit, not a small tilt."""
     from vesicle.analysis import tilt_growth
 
     cone = np.stack([np.sin(0.6) * np.cos(2 * np.pi * T / 5), np.full_like(T, np.cos(0.6)),
                      np.sin(0.6) * np.sin(2 * np.pi * T / 5)], axis=1)  # fmt: skip
     g = tilt_growth(T, np.zeros_like(T), _frames(cone))
     assert not g.small and "not a small tilt" in g.detail
-    assert g.angles == pytest.approx(0.6, rel=1e-9)
+    assert g.angles == pytest.approx(np.pi / 2 - 0.6, rel=1e-9)

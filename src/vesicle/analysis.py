@@ -388,13 +388,14 @@ def classify_orbit(t: np.ndarray, axes: np.ndarray, tail: float = 0.5) -> Orbit:
 
 
 def out_of_plane_angle(axes: np.ndarray) -> np.ndarray:
-    """Angle (rad) from the vorticity axis y to the principal axis nearest it, at each saved step
-    (``axes``: (t, 3, 3), the axis vectors in rows): zero while the shape is symmetric about the
-    shear plane (one principal axis lies along y), the tilt of a shape turned out of it."""
-    axes = np.asarray(axes, dtype=float)
-    nearest = np.take_along_axis(axes, np.abs(axes[..., 1]).argmax(axis=-1)[..., None, None], -2)
-    nearest = nearest[..., 0, :]  # accurate for small angles, unlike arccos(|a_y|):
-    return np.arctan2(np.hypot(nearest[..., 0], nearest[..., 2]), np.abs(nearest[..., 1]))
+    """Elevation (rad) of the long axis above the shear (x-z) plane at each saved step (``axes``:
+    (t, 3, 3), the axis vectors in rows, the longest first): zero for a shape symmetric about the
+    plane with its long axis in it (in-plane TT, TR, TU), the tilt of a start turned out of it
+    about its short in-plane axis (SPEC §13), pi/2 on the vorticity-aligned branch.  The long
+    axis, not the others: a nearly prolate vesicle's two shorter axes are ill-defined and spin
+    about the long one while it tumbles.  ``atan2``, so that angles of 1e-8 are still right."""
+    a = np.asarray(axes, dtype=float)[..., 0, :]
+    return np.arctan2(np.abs(a[..., 1]), np.hypot(a[..., 0], a[..., 2]))
 
 
 @dataclass(frozen=True)
@@ -415,8 +416,9 @@ class TiltGrowth:
 
 
 def tilt_growth(t: np.ndarray, psi: np.ndarray, axes: np.ndarray) -> TiltGrowth:
-    """Growth or decay of the out-of-plane angle (:func:`out_of_plane_angle`) of a run started
-    with a small tilt (SPEC §13: is the in-plane tumbling orbit stable against tilt?).
+    """Growth or decay of the out-of-plane angle (:func:`out_of_plane_angle`: the long axis's
+    elevation above the shear plane) of a run started with a small tilt (SPEC §13: is the
+    in-plane tumbling orbit stable against tilt?).
 
     In TU the angle is sampled once per half turn at the same phase (psi through -pi/2,
     :func:`half_turn_times`; the in-plane orbit repeats every half turn, so the samples see its
@@ -556,7 +558,7 @@ def summarize(run) -> dict:
     psi oscillates (a damped TT approach or TR), the fit of
     ``psi_inf + A exp(omega_I t) cos(omega_R t + phase)`` from the second psi minimum on
     (:func:`vesicle.analysis.fit_damped_oscillation`), else ``None``.  ``out_of_plane``: the
-    angle from y to the principal axis nearest it at the first and last saved steps and its
+    long axis's elevation above the shear plane at the first and last saved steps and its
     growth rate (:func:`vesicle.analysis.tilt_growth`; per half turn in TU).
     """
     s = run.series

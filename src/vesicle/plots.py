@@ -300,10 +300,10 @@ def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
         tilt_ax.semilogy(growth.times, fit, "--", color="C3", lw=1.0,
                          label=f"rate {growth.rate:.3g}")  # fmt: skip
     tilt_ax.set_xlabel("t")
-    tilt_ax.set_ylabel("out-of-plane angle (rad)")
+    tilt_ax.set_ylabel("out-of-plane angle of the long axis (rad)")
     tilt_ax.grid(alpha=0.3, which="both")
     tilt_ax.legend(loc="best", fontsize="small")
-    tilt_ax.set_title("angle from y to the nearest principal axis", fontsize="medium")
+    tilt_ax.set_title("long axis: elevation above the x-z plane", fontsize="medium")
     return _save(fig, path, dpi)
 
 
