@@ -75,6 +75,21 @@ def test_a_small_study_runs_resumes_and_draws(tmp_path):
     r = CliRunner().invoke(main, ["plot", str(again["store"]), "--out", str(tmp_path / "fig")])
     assert r.exit_code == 0, r.output  # `vesicle plot` of a study's store: its own figure
     assert (tmp_path / "fig" / "small.png").read_bytes()[:4] == b"\x89PNG"
+    # another resolution into the same folder is refused before any work, saying what to do
+    r = CliRunner().invoke(main, ["study", str(path), "--grid", "16", "--out",
+                                  str(tmp_path / "out")])  # fmt: skip
+    assert r.exit_code != 0 and "another --out" in r.output and "Traceback" not in r.output
+    assert SweepStore.read(result["store"]).records == after.records
+
+
+def test_a_study_at_another_resolution():
+    """--degree/--grid (``resolution``) replace the study's [discretisation], after --quick."""
+    _, tables = load_study("stress-lambda", quick=True, resolution={"degree": 8, "grid": 24})
+    assert tables["discretisation"] == {"degree": 8, "grid": 24}
+    _, tables = load_study("stress-lambda", resolution={"grid": 24})
+    assert tables["discretisation"] == {"degree": 8, "grid": 24}
+    r = CliRunner().invoke(main, ["study", "stress-lambda", "--grid", "0"])
+    assert r.exit_code != 0 and "--grid must be at least 1" in r.output
 
 
 @pytest.mark.parametrize("edit, message", [

@@ -80,9 +80,13 @@ def list_studies() -> dict[str, dict]:
     return {name: load_study(name)[0] for name in sorted(_shipped())}
 
 
-def load_study(name_or_path: str | Path, quick: bool = False) -> tuple[dict, dict]:
+def load_study(
+    name_or_path: str | Path, quick: bool = False, resolution: dict | None = None
+) -> tuple[dict, dict]:
     """``(study table, sweep tables)`` of a shipped study's name or a TOML path, with the
-    ``[quick]`` replacements applied when ``quick``; errors name the file and the key."""
+    ``[quick]`` replacements applied when ``quick`` and then ``resolution`` (keys of
+    ``[discretisation]``, e.g. ``{"degree": 8, "grid": 24}``); errors name the file and the
+    key."""
     shipped = _shipped()
     path = shipped.get(str(name_or_path), Path(name_or_path))
     if not path.is_file():
@@ -111,6 +115,8 @@ def load_study(name_or_path: str | Path, quick: bool = False) -> tuple[dict, dic
             if not isinstance(values, dict):
                 raise ValueError(f"{path}: [quick.{table}] must be a table")
             data.setdefault(table, {}).update(values)
+    if resolution:
+        data.setdefault("discretisation", {}).update(resolution)
     study = {"name": path.stem, "source": str(path), "quick": bool(quick), **study}
     return study, data
 
@@ -149,11 +155,13 @@ def run_study(
     scheduler: str | None = None,
     progress: Callable[[dict], None] | None = None,
     priority: int = 0,
+    resolution: dict | None = None,
 ) -> dict:
     """Run a study into ``outdir`` (resumable) and draw it; returns ``{"config", "store",
-    "figure", "table", "status"}``.  ``priority``: its points' Dask priority (higher first)."""
+    "figure", "table", "status"}``.  ``priority``: its points' Dask priority (higher first);
+    ``resolution``: ``[discretisation]`` keys that replace the study's (after ``quick``)."""
     return run_studies([name_or_path], outdir, quick, workers, scheduler, progress,
-                       priority)[0]
+                       priority, resolution=resolution)[0]  # fmt: skip
 
 
 def run_studies(
@@ -166,6 +174,7 @@ def run_studies(
     priority: int = 0,
     compute: bool = True,
     extra: list[SweepConfig] | None = None,
+    resolution: dict | None = None,
 ) -> list[dict]:
     """:func:`run_study` for several studies into one folder: their points side by side on one
     Dask client, then each drawn in turn (an ``overlay`` study listed first is drawn on the
@@ -173,7 +182,7 @@ def run_studies(
     configs computed alongside (not drawn; ``SweepStore.open`` reads their stores)."""
     folder = Path(outdir)
     folder.mkdir(parents=True, exist_ok=True)
-    loaded = [load_study(name, quick) for name in names]
+    loaded = [load_study(name, quick, resolution) for name in names]
     configs = [read_sweep_config(_write_config(study, tables, folder))
                for study, tables in loaded]  # fmt: skip
     extra = list(extra or [])

@@ -463,7 +463,8 @@ class SweepStore:
         if store.fingerprint != fingerprint:
             raise ConfigError(
                 f"{config.out} holds a sweep made with another task, discretisation, fixed "
-                f"parameters or options than {config.path}; give a new [sweep] out"
+                f"parameters or options than {config.path}; give a new [sweep] out (vesicle "
+                f"study: another --out)"
             )
         store.config_text = config.text
         return store

@@ -17,6 +17,12 @@ from .sweep import _progress_printer
 @click.option("--list", "show_list", is_flag=True, help="List the shipped studies and their costs.")
 @click.option("--quick", is_flag=True,
               help="Reduced resolution (the study's [quick] table: N = 4 on 12x24).")  # fmt: skip
+@click.option("--degree", type=int, default=None,
+              help="Shape degree N, replacing the study's (and --quick's).")  # fmt: skip
+@click.option("--grid", type=int, default=None,
+              help="n_theta of the grid (n_phi = 2 n_theta), replacing the study's (and "
+                   "--quick's). A store of another resolution in --out is refused: give "
+                   "another --out.")  # fmt: skip
 @click.option("--out", "outdir", type=click.Path(file_okay=False), default="studies",
               show_default=True,
               help="Folder for the study's config, store, figure and table.")  # fmt: skip
@@ -25,7 +31,8 @@ from .sweep import _progress_printer
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on this Dask scheduler (tcp://host:port) instead.")  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
-def study_command(name, show_list, quick, outdir, workers, scheduler, as_json) -> None:
+def study_command(name, show_list, quick, degree, grid, outdir, workers, scheduler,
+                  as_json) -> None:  # fmt: skip
     """Run one of the paper's parametric studies (or a study TOML file) through the sweep
     engine, resumably, and draw its figure and table into --out.
 
@@ -47,10 +54,14 @@ def study_command(name, show_list, quick, outdir, workers, scheduler, as_json) -
         fail("--workers must be at least 1")
     if workers is not None and scheduler is not None:
         fail("give --workers (a LocalCluster) or --scheduler, not both")
+    resolution = {k: v for k, v in (("degree", degree), ("grid", grid)) if v is not None}
+    for key, value in resolution.items():
+        if value < 1:
+            fail(f"--{key} must be at least 1, got {value}")
     show, close = _progress_printer()
     try:
         result = run_study(name, outdir, quick=quick, workers=workers, scheduler=scheduler,
-                           progress=show)  # fmt: skip
+                           progress=show, resolution=resolution)  # fmt: skip
     except KeyboardInterrupt:
         close()
         fail(f"interrupted: the points done are kept in {outdir}; run the same command again "
