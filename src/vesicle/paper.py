@@ -509,24 +509,23 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
               for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
     summaries = _map(options, _tilted_run, calls)
     rows, figures = [], []
-    for name, (lam, tilt, _), s in zip(names, cases, summaries[: len(cases)], strict=True):
+    for (lam, tilt, _), s in zip(cases, summaries[: len(cases)], strict=True):
         orbit = s.get("orbit") or {}
         rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
                      "regime": s["regime"], "orbit": orbit.get("class"),
                      "orbit_period": orbit.get("period"), "psi_period": s["period"],
                      "detail": orbit.get("detail", s["regime_detail"]),
                      "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
-        run = read_run(folder / f"{name}.h5")
-        figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
     tables = [_write_csv(folder / "fig23.csv", rows)]
     tu_rows = []
-    for name, (lam, chi, tilt), s in zip(tu_names, tu_cases, summaries[len(cases):], strict=True):
+    for (lam, chi, tilt), s in zip(tu_cases, summaries[len(cases) :], strict=True):
         o = s["out_of_plane"]
         tu_rows.append({"lam": lam, "chi": chi, "tilt_deg": tilt, "regime": s["regime"],
                         "half_turn_period": s["period"], "angle_start": o["angle_start"],
                         "angle_end": o["angle_end"], "rate": o["rate"],
                         "per_half_turn": o["per_half_turn"], "detail": o["detail"],
                         "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+    for name in names + tu_names:
         run = read_run(folder / f"{name}.h5")
         figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
     if tu_rows:
