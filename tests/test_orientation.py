@@ -60,3 +60,23 @@ def test_a_branch_of_the_vorticity_state_with_general_modes(vorticity):
     symmetric = vs.stability(b.points[-1].steady).omega
     assert general.shape[0] > 0 and symmetric[0, 1] < 0
     assert general[0, 1] > symmetric[0, 1]  # a symmetry-breaking mode leads
+
+
+def test_vorticity_searches_start_where_the_branch_exists():
+    """At v = 0.90, chi = 2 (N = 4, 12x24) Newton from the spheroid along y slides onto the
+    in-plane branch at lam = 4.28 (twice the leading-order in-plane lambda_c, the old default
+    start of vorticity searches) and the vorticity-aligned branch, continued down from 8.56,
+    ends near lam = 5.27 (measured 2026-12-03): the default start is now four times the
+    leading-order value (at least 4), where Newton converges on that branch; below, ``reach``
+    says which easier starts it tried and where the continuation stopped."""
+    from vesicle.branch import reach
+    from vesicle.critical import vorticity_start_lambda
+    from vesicle.theory import misbah_critical_lambda
+
+    d = vs.Discretisation(grid=12, degree=4)
+    lam = vorticity_start_lambda(0.90)
+    assert lam == pytest.approx(4.0 * misbah_critical_lambda(0.90)) and lam > 8.0
+    r = reach(vs.Physics(v=0.90, lam=lam, chi=2.0), d, orientation="vorticity")
+    assert r.orientation == "vorticity" and abs(r.long_axis[1]) > 0.99
+    with pytest.raises(NewtonError, match=r"continuation towards lam = 4\.28 stopped"):
+        reach(vs.Physics(v=0.90, lam=4.28, chi=2.0), d, orientation="vorticity")

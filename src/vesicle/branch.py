@@ -553,9 +553,17 @@ def reach(
         direct = steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
     except (NewtonError, ShapeError, SolverError) as err:
         first = err
-    easier = [physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0)]
-    if physics.v < EASY_V:  # Newton from the spheroid fails at lam = chi = 1 for v = 0.90 (N = 4)
-        easier.append(physics.replace(chi=1.0, lam=1.0, v=EASY_V))
+    if newton.get("orientation", "flow") == "vorticity":
+        # the vorticity-aligned branch: Newton from the spheroid along y slides onto the
+        # in-plane branch at low lam (v = 0.90, chi = 2, lam = 4.28, N = 4) but converges at
+        # lam = 8 and 16: start higher in lam and come down
+        easier = [physics.replace(lam=2.0 * physics.lam), physics.replace(lam=4.0 * physics.lam)]
+        if physics.v < EASY_V:
+            easier.append(physics.replace(lam=4.0 * physics.lam, v=EASY_V))
+    else:
+        easier = [physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0)]
+        if physics.v < EASY_V:  # Newton from the spheroid fails at lam = chi = 1, v = 0.90 (N = 4)
+            easier.append(physics.replace(chi=1.0, lam=1.0, v=EASY_V))
     easier = list(dict.fromkeys(e for e in easier if e != physics))
     if direct is not None:
         spectrum = stability(direct)
@@ -592,10 +600,10 @@ def reach(
     if start is None:
         if direct is not None:
             return direct
+        tried = ", ".join(f"(v = {e.v:g}, lam = {e.lam:g}, chi = {e.chi:g})" for e in easier)
         raise NewtonError(
             f"no steady TT state at lam = {physics.lam:g}, chi = {physics.chi:g}: Newton from the "
-            f"default start failed ({first}), and so did the easier starts at chi = 1 (and "
-            f"lam = 1, v = {EASY_V:g})"
+            f"default start failed ({first}), and so did the easier starts {tried}"
         )
     moved = f"v = {start.physics.v:g}, " if start.physics.v != physics.v else ""
     say(f"{first} at lam = {physics.lam:g}, chi = {physics.chi:g}; continuing from "

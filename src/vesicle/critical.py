@@ -113,6 +113,16 @@ class CriticalResult:
     states: tuple[SteadyResult, ...] = field(default=(), repr=False, compare=False)
 
 
+def vorticity_start_lambda(v: float) -> float:
+    """Where a search on the vorticity-aligned branch starts by default: four times the
+    leading-order in-plane lambda_c (:func:`vesicle.theory.misbah_critical_lambda`), at least 4.
+    That branch's lambda_c lies well above the in-plane one (the paper's Fig. 22; 14.4 at v =
+    0.95, chi = 4, N = 8), and below about twice the leading-order value Newton from the spheroid
+    along y slides onto the in-plane branch (v = 0.90, chi = 1 and 2, lam = 4.28, N = 4) while at
+    lam = 8 and 16 it converges on the vorticity branch."""
+    return 4.0 * max(1.0, misbah_critical_lambda(v))
+
+
 def critical_lambda(
     physics: Physics | float | None = None,
     discretisation: Discretisation | float | None = None,
@@ -274,8 +284,8 @@ def _search(
 
     lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(physics.v))
     if orientation == "vorticity":  # stable above its lambda_c: bracket the decay rate instead
-        if lam0 is None:  # its lambda_c lies well above the in-plane one (the paper's Fig. 22)
-            lam = 2.0 * lam
+        if lam0 is None:
+            lam = vorticity_start_lambda(physics.v)
         lo, hi = _bracket(lambda x: -growth(x), lam, step, factor)
     else:
         lo, hi = _bracket(growth, lam, step, factor)

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 
 from . import __version__
 from .branch import BranchPoint, SpecialPoint, branch, reach
-from .critical import critical_lambda
+from .critical import critical_lambda, vorticity_start_lambda
 from .parameters import Discretisation, Physics
 from .solver import SolverError
 from .stability import stability
@@ -343,8 +343,8 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
     except (*_FAILURES, RuntimeError) as err:
         log.warning("neutral curve seed at chi = %.4g: the bracketing search failed (%s); "
                     "following the branch instead", chi, err)  # fmt: skip
-        lam = max(1.0, misbah_critical_lambda(tracer.physics.v))
-        lam = 2.0 * lam if side < 0 else 0.5 * lam
+        lam = (vorticity_start_lambda(tracer.physics.v) if side < 0
+               else 0.5 * max(1.0, misbah_critical_lambda(tracer.physics.v)))  # fmt: skip
         state = reach(tracer.at(chi, lam), tracer.disc, orientation=orientation,
                       **tracer.options)  # fmt: skip
         ratio = 1.1**side
