@@ -196,3 +196,29 @@ def test_curves_of_one_volume_share_a_colour():
     curves = [{"v": 0.95, "orientation": "vorticity"}, {"v": 0.90}, {"v": 0.95}, {"v": 0.98}]
     colors = _colors(curves)
     assert colors == {0.98: "C0", 0.95: "C1", 0.90: "C2"}
+
+
+def test_a_seed_that_fails_moves_to_the_next_chi(monkeypatch):
+    """Where no critical point can be found at the chi nearest 1 (the vorticity branch at
+    v = 0.90, chi = 2), the curve is seeded at the next chi and traced back: here the seed at
+    chi = 1 is made to fail; chi = 3 seeds the curve and chi = 1 is reached by continuing the
+    critical point down, which agrees with the bracketing search there (8.337 at N = 4 on
+    12x24, the quick report's fig7)."""
+    from vesicle import neutral
+    from vesicle.steady import NewtonError
+
+    real = neutral._seed
+
+    def seed(tracer, chi, *args):
+        if chi == 1.0:
+            raise NewtonError("no critical point here (test)")
+        return real(tracer, chi, *args)
+
+    monkeypatch.setattr(neutral, "_seed", seed)
+    disc = vs.Discretisation(grid=12, degree=4)
+    c = neutral_curve(vs.Physics(v=0.95), [1.0, 3.0], disc, locate_type_change=False)
+    assert [p.chi for p in c.points] == [1.0, 3.0] and c.failed == []
+    assert c.points[0].lambda_c == pytest.approx(8.337, abs=3e-3)
+    monkeypatch.setattr(neutral, "_seed", lambda *a: (_ for _ in ()).throw(NewtonError("none")))
+    with pytest.raises(NewtonError, match="no critical point found at any chi"):
+        neutral_curve(vs.Physics(v=0.95), [1.0, 3.0], disc, locate_type_change=False)

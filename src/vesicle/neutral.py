@@ -289,8 +289,20 @@ def neutral_curve(
     side = -1 if orientation == "vorticity" else 1
     tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
                      modes, side)  # fmt: skip
-    first = min(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
-    seed = _seed(tracer, chis[first], xtol, modes, orientation)
+    # the seed: the chi nearest 1 first; where no critical point is found there (the vorticity
+    # branch at v = 0.90 is unstable at every lam at chi = 2, N = 4), the next nearest, and so on
+    seed, seed_errors = None, {}
+    for first in sorted(range(len(chis)), key=lambda i: abs(math.log(chis[i]))):
+        try:
+            seed = _seed(tracer, chis[first], xtol, modes, orientation)
+            break
+        except (*_FAILURES, RuntimeError, ValueError) as err:
+            log.warning("neutral curve: no critical point to start from at chi = %.4g (%s); "
+                        "trying the next chi", chis[first], err)  # fmt: skip
+            seed_errors[chis[first]] = str(err)
+    if seed is None:
+        raise NewtonError("no critical point found at any chi: " + "; ".join(
+            f"chi = {c:g}: {e}" for c, e in seed_errors.items()))  # fmt: skip
     traced, between, failed = {chis[first]: seed}, [], []
     for order in (chis[first + 1 :], chis[:first][::-1]):  # up, then down from the seed
         path = [seed]
@@ -310,6 +322,9 @@ def neutral_curve(
                 failed.append({"chi": x, "error": str(err)})
                 break
             traced[x] = path[-1]
+    stopped_at = {f["chi"] for f in failed} | set(traced)
+    failed += [{"chi": c, "error": f"no critical point to start from: {e}"}
+               for c, e in seed_errors.items() if c not in stopped_at]  # fmt: skip
     points = [traced[x] for x in chis if x in traced]
     change, bisection = None, []
     if locate_type_change:
