@@ -98,6 +98,8 @@ def test_tilt_growth_in_the_plane_and_without_tumbling():
     g = tilt_growth(t, still, frames)
     assert g.per_half_turn is None and g.rate == pytest.approx(-0.1, rel=1e-6)
     assert "last half" in g.detail
+    one = tilt_growth(t[:1], still[:1], frames[:1])
+    assert one.rate is None and "too few" in one.detail
 
 
 def test_tilt_growth_says_when_the_angle_is_not_small():

@@ -426,7 +426,8 @@ def tilt_growth(t: np.ndarray, psi: np.ndarray, axes: np.ndarray) -> TiltGrowth:
     t: ``rate`` per unit time, ``per_half_turn`` the factor per half turn.  At least three half
     turns are needed; with fewer, or without tumbling, the line is fitted through every saved
     step of the last half and ``per_half_turn`` is None.  A run that never leaves the plane (angle
-    below 1e-12 anywhere in the fitted samples) has ``rate`` None.
+    below 1e-12 anywhere in the fitted samples), or with fewer than two samples, has ``rate``
+    None, and ``detail`` says which.
     """
     t, psi = np.asarray(t, float), np.asarray(psi, float)
     angle = out_of_plane_angle(axes)
@@ -439,7 +440,9 @@ def tilt_growth(t: np.ndarray, psi: np.ndarray, axes: np.ndarray) -> TiltGrowth:
         last = t >= t[0] + 0.5 * (t[-1] - t[0]) if t.size else np.array([], bool)
         times, samples, half = t[last], angle[last], None
         how = f"fitted over the last half ({times.size} saved steps; fewer than 3 half turns)"
-    if times.size < 2 or np.min(samples) < 1e-12:
+    if times.size < 2:
+        return TiltGrowth(times, samples, None, None, how + ": too few to fit")
+    if np.min(samples) < 1e-12:
         return TiltGrowth(times, samples, None, None, how + "; the angle is zero: in the plane")
     rate = float(np.polyfit(times - times[0], np.log(samples), 1)[0])
     factor = float(np.exp(rate * half)) if half is not None else None
