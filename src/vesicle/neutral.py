@@ -289,10 +289,16 @@ def neutral_curve(
     side = -1 if orientation == "vorticity" else 1
     tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
                      modes, side)  # fmt: skip
-    # the seed: the chi nearest 1 first; where no critical point is found there (the vorticity
-    # branch at v = 0.90 is unstable at every lam at chi = 2, N = 4), the next nearest, and so on
+    # the seed: the chi nearest 1 first; where no critical point is found there, the next
+    # nearest, and so on.  The vorticity branch is seeded from the largest chi down: its
+    # lambda_c falls with chi and may not exist at low chi (v = 0.90, chi = 2, N = 4: unstable
+    # at every lam up to 989), where each failed search costs a long bracket
+    if orientation == "vorticity":
+        candidates = sorted(range(len(chis)), key=lambda i: -chis[i])
+    else:
+        candidates = sorted(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
     seed, seed_errors = None, {}
-    for first in sorted(range(len(chis)), key=lambda i: abs(math.log(chis[i]))):
+    for first in candidates:
         try:
             seed = _seed(tracer, chis[first], xtol, modes, orientation)
             break
