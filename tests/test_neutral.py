@@ -222,3 +222,25 @@ def test_a_seed_that_fails_moves_to_the_next_chi(monkeypatch):
     monkeypatch.setattr(neutral, "_seed", lambda *a: (_ for _ in ()).throw(NewtonError("none")))
     with pytest.raises(NewtonError, match="no critical point found at any chi"):
         neutral_curve(vs.Physics(v=0.95), [1.0, 3.0], disc, locate_type_change=False)
+
+
+def test_seed_order_flow_nearest_one_vorticity_largest_first(monkeypatch):
+    """The seeds tried, in order (every one made to fail, so nothing is computed): the in-plane
+    branch from chi nearest 1 outwards; the vorticity branch from the largest chi down."""
+    from vesicle import neutral
+    from vesicle.steady import NewtonError
+
+    tried = []
+
+    def seed(tracer, chi, *args):
+        tried.append(chi)
+        raise NewtonError("none (test)")
+
+    monkeypatch.setattr(neutral, "_seed", seed)
+    chis = [0.2, 0.5, 2.0, 4.0, 8.0]
+    for orientation, order in (("flow", [0.5, 2.0, 4.0, 0.2, 8.0]),
+                               ("vorticity", [8.0, 4.0, 2.0, 0.5, 0.2])):  # fmt: skip
+        tried.clear()
+        with pytest.raises(NewtonError, match="chi = 8: none"):
+            neutral_curve(vs.Physics(v=0.90), chis, DISC, orientation=orientation)
+        assert tried == order
