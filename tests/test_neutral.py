@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 
@@ -244,3 +245,112 @@ def test_seed_order_flow_nearest_one_vorticity_largest_first(monkeypatch):
         with pytest.raises(NewtonError, match="chi = 8: none"):
             neutral_curve(vs.Physics(v=0.90), chis, DISC, orientation=orientation)
         assert tried == order
+
+
+@pytest.fixture(scope="module")
+def small_state():
+    """A converged state (N = 4 on 12x24) that the stand-in points carry as their start."""
+    return vs.steady_tank_treading(vs.Physics(v=0.95, lam=2.0, chi=1.0),
+                                   vs.Discretisation(grid=12, degree=4))  # fmt: skip
+
+
+def _stand_in(state, calls, fail_above=None):
+    """A tracer point without numerics whose start is ``state`` moved to its chi (what the
+    checkpoint writes and a resume reads back)."""
+    import dataclasses
+
+    from vesicle.neutral import NeutralPoint
+    from vesicle.steady import NewtonError
+
+    def point(self, start, chi, lam_pred):
+        if chi in self.known:
+            self.resumed.add(chi)
+            return self.known[chi]
+        if fail_above is not None and chi > fail_above:
+            raise NewtonError(f"no stable tank-treading state found at chi = {chi:g}")
+        calls.append(chi)
+        problem = state.problem.replace(physics=state.physics.replace(chi=chi))
+        p = NeutralPoint(chi, 8.0 + 0.1 * chi, "hopf", 0.3 * chi, -0.01, 0.2, True, 1.0,
+                         start=dataclasses.replace(state, problem=problem))  # fmt: skip
+        if self.checkpoint is not None:
+            self.checkpoint(p)
+        if self.progress is not None:
+            self.progress(p.to_dict())
+        return p
+
+    return point
+
+
+def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, monkeypatch, tmp_path):
+    """`vesicle neutral --out F` keeps each point's state in F's checkpoint folder as it is
+    found; after a stop (here a failure above chi = 1.6), `--resume` takes the points kept and
+    traces only the rest: no seed search, no point traced twice."""
+    import vesicle.neutral as neutral
+
+    calls = []
+    monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
+    monkeypatch.setattr(neutral, "critical_lambda",
+                        lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
+    monkeypatch.setattr(neutral._Tracer, "point", _stand_in(small_state, calls, fail_above=1.6))
+    out = tmp_path / "n.json"
+    args = ["neutral", "--chi", "0.8,1,1.5,2,3", "--grid", "12", "--degree", "4",
+            "--no-type-change", "--out", str(out)]  # fmt: skip
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code != 0 and "--resume continues" in r.output
+    assert sorted(calls) == [0.8, 1.0, 1.5]
+    assert sorted(p.name for p in (tmp_path / "n.states").iterdir()) == [
+        "chi_0.8.h5", "chi_1.5.h5", "chi_1.h5"]  # fmt: skip
+
+    calls.clear()
+    monkeypatch.setattr(neutral._Tracer, "point", _stand_in(small_state, calls))
+    monkeypatch.setattr(neutral, "critical_lambda", lambda *a, **k: pytest.fail("seed searched"))
+    r = CliRunner().invoke(main, [*args, "--resume", "--json"])
+    assert r.exit_code == 0, r.output
+    assert "resuming" in r.output and calls == [2.0, 3.0]
+    result = json.loads(r.output.strip().splitlines()[-1])
+    assert [p["chi"] for p in result["points"]] == [0.8, 1.0, 1.5, 2.0, 3.0]
+    assert result["resumed"] == 3 and result["failed"] == []
+    assert json.loads(out.read_text())["points"] == result["points"]
+
+
+@pytest.mark.parametrize("change, key", [(["--grid", "16"], "grid"), (["--v", "0.9"], "v"),
+                                         (["--xtol", "1e-2"], "xtol")])  # fmt: skip
+def test_resume_refuses_another_curve(small_state, monkeypatch, tmp_path, change, key):
+    import vesicle.neutral as neutral
+
+    out = tmp_path / "n.json"
+    args = ["neutral", "--chi", "1,2", "--grid", "12", "--degree", "4", "--no-type-change",
+            "--out", str(out)]  # fmt: skip
+    monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
+    monkeypatch.setattr(neutral, "critical_lambda",
+                        lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
+    monkeypatch.setattr(neutral._Tracer, "point", _stand_in(small_state, []))
+    assert CliRunner().invoke(main, args).exit_code == 0
+    r = CliRunner().invoke(main, [*args, *change, "--resume"])
+    assert r.exit_code != 0 and f"file's {key}" in r.output and "Traceback" not in r.output
+    r = CliRunner().invoke(main, ["neutral", "--chi", "1,2", "--resume"])
+    assert r.exit_code != 0 and "give --out" in r.output
+
+
+def test_a_resumed_trace_is_the_uninterrupted_one(curve, tmp_path):
+    """The point at chi = 1 written as a checkpoint and read back (its start state from the
+    file) continues to chi = 1.3 exactly as from the state in memory: lambda_c, omega_R and the
+    start state there agree to rounding."""
+    from vesicle.neutral import NeutralCurve
+    from vesicle.neutral_io import read_checkpoint, write_point_state
+
+    p1 = next(p for p in curve.points if p.chi == 1.0)
+    folder, out = tmp_path / "n.states", tmp_path / "n.json"
+    write_point_state(folder, p1)
+    out.write_text(json.dumps(NeutralCurve(curve.physics, DISC, [p1], None, [], 0.0).to_dict()))
+    restored = read_checkpoint(out, folder, curve.physics, DISC)
+    assert [p.to_dict() for p in restored] == [p1.to_dict()]
+    np.testing.assert_array_equal(restored[0].start.jacobian, p1.start.jacobian)
+    memory = neutral_curve(curve.physics, [1.0, 1.3], DISC, known=[p1], locate_type_change=False)
+    resumed = neutral_curve(curve.physics, [1.0, 1.3], DISC, known=restored,
+                            locate_type_change=False)  # fmt: skip
+    assert memory.resumed == resumed.resumed == 1
+    a, b = memory.points[1], resumed.points[1]
+    assert b.chi == 1.3 and b.lambda_c == pytest.approx(a.lambda_c, rel=1e-10, abs=0)
+    assert b.omega_R == pytest.approx(a.omega_R, rel=1e-8)
+    np.testing.assert_allclose(b.start.a, a.start.a, rtol=0, atol=1e-10)

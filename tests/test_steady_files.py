@@ -112,3 +112,24 @@ def test_branch_states_are_steady_files(tmp_path):
     assert (
         s.physics.lam == 2.0 and s.omega is not None and s.jacobian.shape[0] == s.modes.shape[0] + 2
     )
+
+
+def test_the_state_restarts_newton_bit_for_bit(steady_file):
+    """`SteadyFile.steady_result()` (what a resumed neutral curve starts from): the stored
+    coordinates, multipliers and Jacobian exactly; it is a solution, independently of how it
+    was stored: Newton started from it at the same parameters stops at iteration 0 (its own
+    residual below 1e-8), and the stability analysis of the restored Jacobian gives the
+    eigenvalues printed by `tt --stability`."""
+    path, printed = steady_file
+    s = read_steady(path)
+    r = s.steady_result()
+    np.testing.assert_array_equal(r.a, s.arrays["a"])
+    np.testing.assert_array_equal(r.jacobian, s.jacobian)
+    assert r.multipliers == tuple(s.multipliers) and r.physics == s.physics
+    assert r.psi == printed["psi"] and r.stress.S_xz == pytest.approx(printed["S_xz"], rel=1e-14)
+    np.testing.assert_allclose(vs.stability(r).omega, printed["eigenvalues"], rtol=1e-12,
+                               atol=1e-14)  # fmt: skip
+    again = vs.steady_tank_treading(s.physics, s.discretisation, initial=r)
+    assert len(again.residual_history) == 1 and again.residual_history[0] < 1e-8
+    with pytest.raises(ValueError, match="degree, grid"):
+        s.steady_result(vs.Discretisation(grid=16, degree=4))

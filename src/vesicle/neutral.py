@@ -79,6 +79,16 @@ class NeutralPoint:
                 "curvature_shift": self.curvature_shift,
                 **({"bracket": list(self.bracket)} if self.bracket else {})}  # fmt: skip
 
+    @classmethod
+    def from_dict(cls, d: dict, start: SteadyResult | None = None) -> NeutralPoint:
+        """The point of :meth:`to_dict` (an ``--out`` file's entry), with its start state."""
+        bracket = d.get("bracket")
+        return cls(float(d["chi"]), float(d["lambda_c"]), str(d["bifurcation"]),
+                   float(d["omega_R"]), float(d["psi"]), float(d["D"]),
+                   bool(d.get("located", True)), float(d.get("seconds", 0.0)),
+                   tuple(map(float, bracket)) if bracket else None, start,
+                   float(d.get("curvature_shift", 0.0)))  # fmt: skip
+
 
 @dataclass(frozen=True)
 class NeutralCurve:
@@ -93,6 +103,8 @@ class NeutralCurve:
     failed: list[dict] = field(default_factory=list)  # {"chi", "error"} where a direction stopped
     orientation: str = "flow"
     modes: str = "symmetric"
+    xtol: float = 1e-3
+    resumed: int = 0  # points taken from a checkpoint (``known``), not traced again
 
     def to_dict(self) -> dict:
         return {
@@ -100,6 +112,8 @@ class NeutralCurve:
             "v": self.physics.v,
             "degree": self.discretisation.degree,
             "grid": self.discretisation.grid,
+            "xtol": self.xtol,
+            "resumed": self.resumed,
             "physics": {k: x for k, x in self.physics.to_dict().items() if k not in ("lam", "chi")},
             "discretisation": self.discretisation.to_dict(),
             "points": [p.to_dict() for p in self.points],
@@ -114,8 +128,13 @@ class NeutralCurve:
 
 class _Tracer:
     def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor,
-                 modes="symmetric", side=1):  # fmt: skip
+                 modes="symmetric", side=1, known=(), checkpoint=None):  # fmt: skip
         self.physics, self.disc, self.xtol, self.margin = physics, disc, xtol, margin
+        # points already traced (a resumed curve), by their exact chi, and the callback given
+        # each new point (with its start state) before ``progress``
+        self.known = {p.chi: p for p in known}
+        self.checkpoint = checkpoint
+        self.resumed: set[float] = set()
         self.progress, self.jacobian, self.modes = progress, jacobian, modes
         # +1: TT stable below lambda_c (the in-plane branch); -1: stable above it (vorticity)
         self.side = side
@@ -197,6 +216,12 @@ class _Tracer:
                           f"{'below' if side > 0 else 'above'} lam = {lam:g}")  # fmt: skip
 
     def point(self, start: SteadyResult, chi: float, lam_pred: float) -> NeutralPoint:
+        if chi in self.known:  # found before the curve was interrupted: its start state is
+            # the one stored, bit for bit, so the trace goes on as it would have
+            log.info("chi = %.4g: lambda_c = %.6g from the checkpoint", chi,
+                     self.known[chi].lambda_c)  # fmt: skip
+            self.resumed.add(chi)
+            return self.known[chi]
         t0 = time.perf_counter()
         side = self.side
         state = self.stable_start(start, chi, lam_pred * (1.0 - side * self.margin))
@@ -221,6 +246,8 @@ class _Tracer:
                          start_from, nearest.curvature_shift)  # fmt: skip
         log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c, kind,
                  p.omega_R)  # fmt: skip
+        if self.checkpoint is not None:  # first: a point is listed only once its state is kept
+            self.checkpoint(p)
         if self.progress is not None:
             self.progress(p.to_dict())
         return p
@@ -249,6 +276,8 @@ def neutral_curve(
     executor=None,
     orientation: str = "flow",
     modes: str | None = None,
+    known: Sequence[NeutralPoint] = (),
+    checkpoint: Callable[[NeutralPoint], None] | None = None,
 ) -> NeutralCurve:
     """Trace ``lambda_c(chi)`` through the values ``chi`` (see the module docstring).
 
@@ -274,6 +303,17 @@ def neutral_curve(
     modes : {"symmetric", "general"}, optional
         The perturbations analysed; default "symmetric" for the in-plane branch and "general"
         for the vorticity branch (it loses stability to modes that break the x-z symmetry).
+    known : sequence of NeutralPoint
+        Points of an interrupted trace of the same curve (same v, resolution, orientation,
+        modes and ``xtol``), each with its ``start`` state (:func:`vesicle.neutral_io.
+        read_checkpoint`): wherever the trace (seed, intermediate chi, bisection) comes to one of
+        their chi exactly, the point is taken instead of traced again.  Since each new chi
+        starts from its neighbour's stored state, the resumed curve is the one an uninterrupted
+        trace gives.
+    checkpoint : callable, optional
+        Given each newly traced :class:`NeutralPoint` (with its start state) before
+        ``progress``: where a long trace keeps its states (:func:`vesicle.neutral_io.
+        write_point_state`).
     """
     if modes is None:
         modes = "general" if orientation == "vorticity" else "symmetric"
@@ -288,7 +328,7 @@ def neutral_curve(
     t0 = time.perf_counter()
     side = -1 if orientation == "vorticity" else 1
     tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
-                     modes, side)  # fmt: skip
+                     modes, side, known, checkpoint)  # fmt: skip
     # the seed: the chi nearest 1 first; where no critical point is found there, the next
     # nearest, and so on.  The vorticity branch is seeded from the largest chi down: its
     # lambda_c falls with chi and may not exist at low chi (v = 0.90, chi = 2, N = 4: unstable
@@ -298,8 +338,14 @@ def neutral_curve(
     else:
         candidates = sorted(range(len(chis)), key=lambda i: abs(math.log(chis[i])))
     seed, seed_errors = None, {}
+    resumed = [i for i in candidates if chis[i] in tracer.known]
+    if resumed:  # a point found before the interruption seeds the curve
+        candidates = [resumed[0]] + [i for i in candidates if i != resumed[0]]
     for first in candidates:
         try:
+            if chis[first] in tracer.known:
+                seed = tracer.point(None, chis[first], tracer.known[chis[first]].lambda_c)
+                break
             seed = _seed(tracer, chis[first], xtol, modes, orientation)
             break
         except (*_FAILURES, RuntimeError, ValueError) as err:
@@ -337,7 +383,8 @@ def neutral_curve(
         change, bisection = _type_change(tracer, sorted(points + between, key=lambda p: p.chi),
                                          type_tol)  # fmt: skip
     return NeutralCurve(physics, disc, points, change, between + bisection,
-                        time.perf_counter() - t0, failed, orientation, modes)  # fmt: skip
+                        time.perf_counter() - t0, failed, orientation, modes, float(xtol),
+                        len(tracer.resumed))  # fmt: skip
 
 
 def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str) -> NeutralPoint:

@@ -39,8 +39,10 @@ import numpy as np
 from . import __version__
 from .io import open_file, stamp, write_atomically
 from .parameters import Discretisation, Physics
+from .problem import SteadyProblem
+from .rheology import ParticleStress
 from .stability import StabilityResult
-from .steady import SteadyResult
+from .steady import NEWTON_TOLERANCES, SteadyResult
 from .surface import Shape
 
 __all__ = [
@@ -72,6 +74,8 @@ class SteadyFile:
     mode_parts: np.ndarray | None = None  # (k, 2, N+1, N+1): real and imaginary parts
     stability_basis: str | None = None
     attributes: dict = field(default_factory=dict)
+    basis: str = "symmetric"  # of the unknowns (the Jacobian's columns)
+    jacobian_method: str = "linearised"
 
     @property
     def shape(self) -> Shape:
@@ -80,6 +84,49 @@ class SteadyFile:
     @property
     def jacobian(self) -> np.ndarray:
         return self.arrays["M"]
+
+    def steady_result(self, discretisation: Discretisation | None = None) -> SteadyResult:
+        """The state as a :class:`~vesicle.steady.SteadyResult`, without a solve: the stored
+        coordinates, multipliers and Jacobian bit for bit, so that a continuation from it (a
+        neutral curve resumed, :mod:`vesicle.neutral_io`) takes the steps it would have taken
+        from the state in memory.  ``discretisation``: how to go on computing (its backend,
+        method, workers); its grid, degree and n_rot must be the file's."""
+        if "M" not in self.arrays:
+            raise ValueError("this steady-state file has no Jacobian: it cannot start Newton")
+        disc = self.discretisation if discretisation is None else discretisation
+        if _resolution(disc) != _resolution(self.discretisation):
+            raise ValueError(f"the state is at {_resolution(self.discretisation)} (degree, grid, "
+                             f"n_rot), not {_resolution(disc)}")  # fmt: skip
+        problem = SteadyProblem(self.physics, disc, NEWTON_TOLERANCES, modes=self.basis,
+                                jacobian_method=self.jacobian_method)  # fmt: skip
+        a = np.asarray(self.arrays["a"], float)
+        if a.size != problem.basis.size:
+            raise ValueError(f"the file's {a.size} coordinates do not match the {self.basis} "
+                             f"basis of degree {self.discretisation.degree}")  # fmt: skip
+        chi = self.physics.chi
+
+        def stress(S):
+            return ParticleStress(np.asarray(S, float) * chi, chi)
+
+        s = self.summary
+        return SteadyResult(
+            a=a,
+            multipliers=(float(self.multipliers[0]), float(self.multipliers[1])),
+            shape=problem.shape(a),
+            problem=problem,
+            residual_history=tuple(float(r) for r in self.arrays["residual_history"]),
+            converged=True,
+            jacobian=np.asarray(self.arrays["M"], float),
+            gradients=np.asarray(self.arrays["gradients"], float),
+            psi=float(s["psi"]),
+            D=float(s["D"]),
+            axes=np.asarray(self.arrays["axes"], float),
+            stress=stress(self.arrays["S"]),
+            split={"bending": stress(self.arrays["S_bending"]),
+                   "flow": stress(self.arrays["S_flow"])},
+            seconds=float(s["seconds"]),
+            solves=int(s["solves"]),
+        )
 
 
 def steady_summary(result: SteadyResult, stability: StabilityResult | None = None) -> dict:
@@ -111,6 +158,10 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
                     "eigenvalues": stability.omega.tolist(),
                     "curvature_shift": float(stability.curvature_shift)})  # fmt: skip
     return out
+
+
+def _resolution(disc: Discretisation) -> tuple:
+    return disc.degree, disc.grid, disc.n_rot or disc.grid
 
 
 def _checksum(parameters: dict, arrays: dict[str, np.ndarray], scalars: dict) -> str:
@@ -228,6 +279,8 @@ def read_steady(path: str | os.PathLike) -> SteadyFile:
         mode_parts=arrays.get("stability/mode_parts"),
         stability_basis=basis,
         attributes=attributes,
+        basis=str(parameters.get("basis", "symmetric")),
+        jacobian_method=str(parameters.get("jacobian", "linearised")),
     )
 
 

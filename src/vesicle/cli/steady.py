@@ -15,6 +15,7 @@ from ..branch import branch, parse_values, reach
 from ..config import read_config
 from ..critical import critical_lambda, critical_summary
 from ..neutral import neutral_curve
+from ..neutral_io import read_checkpoint, states_folder, write_point_state
 from ..parallel import executor
 from ..parameters import Physics
 from ..problem import JACOBIANS
@@ -468,23 +469,55 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 @_WORKERS
 @_SCHEDULER
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
-              help="Write the curve as JSON to this file.")  # fmt: skip
-@_STATES
+              help="Write the curve as JSON to this file, point by point as they are found; "
+              "each point's state goes to a checkpoint folder beside it (curve.json: "
+              "curve.states/) unless --states names one.")  # fmt: skip
+@click.option(
+    "--states",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Write each point's state (the stable state below lambda_c: shape, multipliers, "
+    "Jacobian, eigenvalues) as a steady-state file in this folder as it is found (vesicle "
+    "plot / run --init read them; --resume continues from them).",
+)
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Continue the curve in --out (interrupted, or with more chi): its points whose "
+    "states are kept are taken as found, the rest traced from them (the same options needed).",
+)
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
 def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orientation, modes,
-                    jacobian, workers,
-                    scheduler, out, states, as_json, config_path, **options) -> None:  # fmt: skip
+                    jacobian, workers, scheduler, out, states, resume, as_json, config_path,
+                    **options) -> None:  # fmt: skip
     """Neutral curve lambda_c(chi) at fixed v: the critical point continued in chi, with the
     bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
     chis = _chi_values(chi_text, points)
+    if resume and out is None:
+        fail("--resume continues the curve of an --out file: give --out")
     if out is not None:
         _writable(Path(out))
+    folder = Path(states) if states is not None else (states_folder(out) if out else None)
+    modes = modes or ("general" if orientation == "vorticity" else "symmetric")
     found: list[dict] = []
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
+        known = []
+        if resume and Path(out).exists():
+            known = read_checkpoint(out, folder, physics, disc, orientation=orientation,
+                                    modes=modes, xtol=xtol, jacobian=jacobian)  # fmt: skip
+            click.echo(f"resuming {out}: {len(known)} points with their states in {folder}",
+                       err=True)  # fmt: skip
+        elif resume:
+            click.echo(f"nothing to resume in {out} (no such file): tracing from the start",
+                       err=True)  # fmt: skip
+        found = [p.to_dict() for p in known]
+
+        def keep(point) -> None:  # the state first: a point is listed once it can restart
+            write_point_state(folder, point, {"command": command_line(ctx)})
 
         def progress(info: dict) -> None:  # each point echoed, and kept in --out as it comes
             _echo_progress(info)
@@ -492,6 +525,9 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orien
             if out is not None:
                 partial = {"vesicle_version": __version__, "v": physics.v,
                            "degree": disc.degree, "grid": disc.grid, "partial": True,
+                           "xtol": xtol, "orientation": orientation, "modes": modes,
+                           "physics": {k: x for k, x in physics.to_dict().items()
+                                       if k not in ("lam", "chi")},
                            "command": command_line(ctx), "type_change": None,
                            "points": sorted(found, key=lambda p: p["chi"])}  # fmt: skip
                 _emit_json(partial, out, False)
@@ -500,16 +536,17 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orien
             curve = neutral_curve(physics, chis, disc, xtol=xtol, type_tol=type_tol,
                                   locate_type_change=not no_type_change, progress=progress,
                                   jacobian=jacobian, executor=pool, orientation=orientation,
-                                  modes=modes)  # fmt: skip
+                                  modes=modes, known=known,
+                                  checkpoint=keep if folder is not None else None)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
-        fail(str(err) + (f" (the points found are in {out})" if out and found else ""))
+        kept = f" (the points found are in {out}; --resume continues)" if out and found else ""
+        fail(str(err) + kept)
     result = {**curve.to_dict(), "command": command_line(ctx)}
-    if states is not None:  # the stable state just below each critical point
-        _write_states(ctx, states, [(f"chi_{p.chi:.6g}", p.start) for p in curve.points])
     if curve.failed:  # what was found is written; the command still fails
         _emit_json(result, out, as_json)
+        kept = f" (the points found are in {out}; --resume continues)" if out else ""
         fail("the curve stopped: " + "; ".join(f"before chi = {f['chi']:.4g}: {f['error']}"
-                                              for f in curve.failed))  # fmt: skip
+                                              for f in curve.failed) + kept)  # fmt: skip
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
