@@ -247,41 +247,8 @@ def test_seed_order_flow_nearest_one_vorticity_largest_first(monkeypatch):
         assert tried == order
 
 
-@pytest.fixture(scope="module")
-def small_state():
-    """A converged state (N = 4 on 12x24) that the stand-in points carry as their start."""
-    return vs.steady_tank_treading(vs.Physics(v=0.95, lam=2.0, chi=1.0),
-                                   vs.Discretisation(grid=12, degree=4))  # fmt: skip
-
-
-def _stand_in(state, calls, fail_above=None):
-    """A tracer point without numerics whose start is ``state`` moved to its chi (what the
-    checkpoint writes and a resume reads back)."""
-    import dataclasses
-
-    from vesicle.neutral import NeutralPoint
-    from vesicle.steady import NewtonError
-
-    def point(self, start, chi, lam_pred):
-        if chi in self.known:
-            self.resumed.add(chi)
-            return self.known[chi]
-        if fail_above is not None and chi > fail_above:
-            raise NewtonError(f"no stable tank-treading state found at chi = {chi:g}")
-        calls.append(chi)
-        problem = state.problem.replace(physics=state.physics.replace(chi=chi))
-        p = NeutralPoint(chi, 8.0 + 0.1 * chi, "hopf", 0.3 * chi, -0.01, 0.2, True, 1.0,
-                         start=dataclasses.replace(state, problem=problem))  # fmt: skip
-        if self.checkpoint is not None:
-            self.checkpoint(p)
-        if self.progress is not None:
-            self.progress(p.to_dict())
-        return p
-
-    return point
-
-
-def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, monkeypatch, tmp_path):
+def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, stand_in, monkeypatch,
+                                                           tmp_path):
     """`vesicle neutral --out F` keeps each point's state in F's checkpoint folder as it is
     found; after a stop (here a failure above chi = 1.6), `--resume` takes the points kept and
     traces only the rest: no seed search, no point traced twice."""
@@ -291,7 +258,7 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, monkeypat
     monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
     monkeypatch.setattr(neutral, "critical_lambda",
                         lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
-    monkeypatch.setattr(neutral._Tracer, "point", _stand_in(small_state, calls, fail_above=1.6))
+    monkeypatch.setattr(neutral._Tracer, "point", stand_in(small_state, calls, fail_above=1.6))
     out = tmp_path / "n.json"
     args = ["neutral", "--chi", "0.8,1,1.5,2,3", "--grid", "12", "--degree", "4",
             "--no-type-change", "--out", str(out)]  # fmt: skip
@@ -302,7 +269,7 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, monkeypat
         "chi_0.8.h5", "chi_1.5.h5", "chi_1.h5"]  # fmt: skip
 
     calls.clear()
-    monkeypatch.setattr(neutral._Tracer, "point", _stand_in(small_state, calls))
+    monkeypatch.setattr(neutral._Tracer, "point", stand_in(small_state, calls))
     monkeypatch.setattr(neutral, "critical_lambda", lambda *a, **k: pytest.fail("seed searched"))
     r = CliRunner().invoke(main, [*args, "--resume", "--json"])
     assert r.exit_code == 0, r.output
@@ -315,7 +282,8 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, monkeypat
 
 @pytest.mark.parametrize("change, key", [(["--grid", "16"], "grid"), (["--v", "0.9"], "v"),
                                          (["--xtol", "1e-2"], "xtol")])  # fmt: skip
-def test_resume_refuses_another_curve(small_state, monkeypatch, tmp_path, change, key):
+def test_resume_refuses_another_curve(small_state, stand_in, monkeypatch, tmp_path, change,
+                                      key):
     import vesicle.neutral as neutral
 
     out = tmp_path / "n.json"
@@ -324,7 +292,7 @@ def test_resume_refuses_another_curve(small_state, monkeypatch, tmp_path, change
     monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
     monkeypatch.setattr(neutral, "critical_lambda",
                         lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
-    monkeypatch.setattr(neutral._Tracer, "point", _stand_in(small_state, []))
+    monkeypatch.setattr(neutral._Tracer, "point", stand_in(small_state, []))
     assert CliRunner().invoke(main, args).exit_code == 0
     r = CliRunner().invoke(main, [*args, *change, "--resume"])
     assert r.exit_code != 0 and f"file's {key}" in r.output and "Traceback" not in r.output

@@ -353,6 +353,43 @@ def test_a_neutral_point_that_stopped_keeps_its_points_and_counts_as_failed(monk
     assert entry["result"]["failed"] == [{"chi": 3.0, "error": "no TT"}]
 
 
+def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeypatch,
+                                                               small_state, stand_in):
+    """task = "neutral": each curve keeps its points and states beside the store
+    (`<store>_curves/<key>.json`, `<key>.states/`) as they are found; a curve cut short (here a
+    failure above chi = 1.6, as a lost worker would leave it) is tried again from them: the
+    points kept are not traced again, nor is the seed searched."""
+    import vesicle as vs
+    import vesicle.neutral as neutral
+
+    path = write(tmp_path, '[sweep]\ntask = "neutral"\nout = "n.h5"\n[grid]\nv = [0.95]\n'
+                           '[task]\nchi = [0.8, 1.0, 1.5, 2.0]\nlocate_type_change = false\n'
+                           + SMALL)  # fmt: skip
+    config = read_sweep_config(path)
+    assert config.settings["curves_dir"] == str(tmp_path / "n_curves")
+    same = read_sweep_config(write(tmp_path, path.read_text().replace("n.h5", "m.h5"), "m.toml"))
+    assert same.fingerprint() == config.fingerprint()  # the folder is not part of the work
+    calls = []
+    monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
+    monkeypatch.setattr(neutral, "critical_lambda",
+                        lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
+    monkeypatch.setattr(neutral._Tracer, "point", stand_in(small_state, calls, fail_above=1.6))
+    args = ("neutral", config.points[0].to_dict(), config.discretisation.to_dict(),
+            config.options, config.plain_settings())  # fmt: skip
+    first = run_point(*args)
+    assert first["status"] == "failed" and sorted(calls) == [0.8, 1.0, 1.5]
+    key = config.points[0].key
+    assert (tmp_path / "n_curves" / f"{key}.json").exists()
+    assert len(list((tmp_path / "n_curves" / f"{key}.states").glob("chi_*.h5"))) == 3
+    calls.clear()
+    monkeypatch.setattr(neutral._Tracer, "point", stand_in(small_state, calls))
+    monkeypatch.setattr(neutral, "critical_lambda", lambda *a, **k: pytest.fail("seed searched"))
+    again = run_point(*args)
+    assert again["status"] == "done" and calls == [2.0]
+    assert [p["chi"] for p in again["result"]["points"]] == [0.8, 1.0, 1.5, 2.0]
+    assert again["result"]["resumed"] == 3
+
+
 def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
     """task = "run": each point's run file lies beside the store; a point whose run was cut
     short (here interrupted at t > 0.05) resumes from the file's checkpoint and ends where an

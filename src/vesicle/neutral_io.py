@@ -18,12 +18,13 @@ import logging
 import os
 from pathlib import Path
 
+from . import __version__
 from .neutral import NeutralPoint
 from .parameters import Discretisation, Physics
 from .stability import stability
 from .steady_io import read_steady, write_steady
 
-__all__ = ["read_checkpoint", "state_path", "states_folder", "write_point_state"]
+__all__ = ["Checkpoint", "read_checkpoint", "state_path", "states_folder", "write_point_state"]
 
 log = logging.getLogger(__name__)
 
@@ -110,3 +111,59 @@ def read_checkpoint(
             continue
         points.append(NeutralPoint.from_dict(entry, start))
     return points
+
+
+class Checkpoint:
+    """Where a neutral curve keeps its points as they are found: each new point's state in
+    ``folder`` (default: beside ``out``, :func:`states_folder`), then the points so far in
+    ``out`` as a partial curve file (written atomically); :meth:`resume` reads them back.
+    Called with each new point (``neutral_curve(..., checkpoint=this)``).
+
+    ``extra``: more keys of the partial file (the command line, say)."""
+
+    def __init__(self, out, physics: Physics, discretisation: Discretisation, *,
+                 folder=None, orientation: str = "flow", modes: str | None = None,
+                 xtol: float = 1e-3, jacobian: str = "linearised",
+                 extra: dict | None = None):  # fmt: skip
+        self.out = None if out is None else Path(out)
+        if folder is None and self.out is None:
+            raise ValueError("a checkpoint needs a file or a folder")
+        self.folder = Path(folder) if folder is not None else states_folder(self.out)
+        self.physics, self.disc = physics, discretisation
+        self.orientation, self.xtol, self.jacobian = orientation, float(xtol), jacobian
+        self.modes = modes or ("general" if orientation == "vorticity" else "symmetric")
+        self.extra = dict(extra or {})
+        self.found: list[dict] = []
+
+    def resume(self) -> list[NeutralPoint]:
+        """The points kept by an earlier trace (none if ``out`` does not exist); raises
+        ValueError for a file of another curve."""
+        if self.out is None or not self.out.exists():
+            return []
+        points = read_checkpoint(self.out, self.folder, self.physics, self.disc,
+                                 orientation=self.orientation, modes=self.modes,
+                                 xtol=self.xtol, jacobian=self.jacobian)  # fmt: skip
+        self.found = [p.to_dict() for p in points]
+        return points
+
+    def __call__(self, point: NeutralPoint) -> None:
+        write_point_state(self.folder, point, {k: v for k, v in self.extra.items()
+                                               if isinstance(v, str)})  # fmt: skip
+        self.found.append(point.to_dict())
+        if self.out is not None:
+            self.write_partial()
+
+    def write_partial(self) -> None:
+        physics = {k: x for k, x in self.physics.to_dict().items() if k not in ("lam", "chi")}
+        partial = {"vesicle_version": __version__, "v": self.physics.v,
+                   "degree": self.disc.degree, "grid": self.disc.grid, "partial": True,
+                   "xtol": self.xtol, "orientation": self.orientation, "modes": self.modes,
+                   "physics": physics, **self.extra, "type_change": None,
+                   "points": sorted(self.found, key=lambda p: p["chi"])}  # fmt: skip
+        tmp = self.out.with_name(self.out.name + ".tmp")
+        try:
+            tmp.write_text(json.dumps(partial, indent=1))
+            os.replace(tmp, self.out)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise

@@ -30,7 +30,9 @@ TOML file::
 
 A ``branch`` point is a whole branch at the fixed values of its grid point (e.g. one per v and
 chi, continued in lam), a ``neutral`` point a whole neutral curve at its v: sweeps of these run
-whole branches or curves side by side on the workers.
+whole branches or curves side by side on the workers.  A neutral curve keeps its points and
+their states as they are found in ``STORE_curves/`` (:class:`vesicle.neutral_io.Checkpoint`),
+and one cut short goes on from them when it is tried again.
 
 Every point is keyed by its parameters (:attr:`vesicle.Physics.key`).  Results come back to the
 process that runs the sweep and are written, one completed point at a time, to the store by an
@@ -69,6 +71,7 @@ from .dynamics import RunParameters
 from .ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 from .io import open_file, read_run, stamp, write_atomically
 from .neutral import neutral_curve
+from .neutral_io import Checkpoint
 from .parallel import local_cluster
 from .parameters import Discretisation, Physics, stable_key
 from .simulation import load_parameters, simulate
@@ -146,6 +149,9 @@ def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dic
             **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result}  # fmt: skip
 
 
+#: settings that name folders of the points' files (not part of what a store's points share)
+FOLDERS = ("runs_dir", "curves_dir")
+
 def _neutral_chi(options: dict) -> list[float]:
     chi = options.get("chi", "0.1:10")
     if isinstance(chi, list):
@@ -155,9 +161,25 @@ def _neutral_chi(options: dict) -> list[float]:
 
 
 def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    keys = ("jacobian", "xtol", "type_tol", "locate_type_change", "orientation")
-    c = neutral_curve(physics, _neutral_chi(options), disc,
-                      **{k: options[k] for k in keys if k in options})  # fmt: skip
+    keys = ("jacobian", "xtol", "type_tol", "locate_type_change", "orientation", "modes")
+    kwargs = {k: options[k] for k in keys if k in options}
+    known, keep = [], None
+    if settings.get("curves_dir"):  # the curve's points and states as they are found: a curve
+        # cut short by a crash, Ctrl-C or a lost worker goes on from them when tried again
+        keep = Checkpoint(Path(settings["curves_dir"]) / f"{physics.key}.json", physics, disc,
+                          orientation=kwargs.get("orientation", "flow"),
+                          modes=kwargs.get("modes"), xtol=kwargs.get("xtol", 1e-3),
+                          jacobian=kwargs.get("jacobian", "linearised"))  # fmt: skip
+        keep.out.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            known = keep.resume()
+        except ValueError as err:
+            log.warning("neutral curve %s: its checkpoint is not usable (%s): traced again",
+                        physics.key, err)  # fmt: skip
+        if known:
+            log.info("neutral curve %s: %d points from its checkpoint", physics.key, len(known))
+    c = neutral_curve(physics, _neutral_chi(options), disc, known=known, checkpoint=keep,
+                      **kwargs)  # fmt: skip
     return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
 
 
@@ -269,9 +291,9 @@ class SweepConfig:
 
     def plain_settings(self, runs_dir: bool = True) -> dict:
         """The settings as plain data (the solver object as its dict); ``runs_dir=False``
-        leaves out the run files' folder."""
+        leaves out the folders of the points' files (runs, neutral-curve checkpoints)."""
         return {k: (v.to_dict() if hasattr(v, "to_dict") else v)
-                for k, v in self.settings.items() if runs_dir or k != "runs_dir"}  # fmt: skip
+                for k, v in self.settings.items() if runs_dir or k not in FOLDERS}  # fmt: skip
 
     def fingerprint(self) -> str:
         """What every point of one store must share (task, discretisation, options, settings,
@@ -372,13 +394,15 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
         points = tuple(Physics(**{**fixed, **c}) for c in combos)
         disc = Discretisation(**data.get("discretisation", {}))
         settings = {}
+        out_path = Path(sweep["out"])
+        out_path = out_path if out_path.is_absolute() else path.parent / out_path
         if task == "run":
             settings = {"solver": solver_from(data.get("solver", {})), "run": data.get("run", {})}
             RunParameters(points[0], disc, settings["solver"], **settings["run"])
-            out_path = Path(sweep["out"])
-            out_path = out_path if out_path.is_absolute() else path.parent / out_path
             # the run files of the points, beside the store (vesicle plot / analyze read them)
             settings["runs_dir"] = str(out_path.parent / f"{out_path.stem}_runs")
+        if task == "neutral":  # each curve's checkpoint (points and states), beside the store
+            settings["curves_dir"] = str(out_path.parent / f"{out_path.stem}_curves")
         if "orientation" in options and options["orientation"] not in ORIENTATIONS:
             raise ValueError(f"[task] orientation must be one of {', '.join(ORIENTATIONS)}, "
                              f"got {options['orientation']!r}")  # fmt: skip

@@ -10,12 +10,11 @@ from pathlib import Path
 import click
 import numpy as np
 
-from .. import __version__
 from ..branch import branch, parse_values, reach
 from ..config import read_config
 from ..critical import critical_lambda, critical_summary
 from ..neutral import neutral_curve
-from ..neutral_io import read_checkpoint, states_folder, write_point_state
+from ..neutral_io import Checkpoint
 from ..parallel import executor
 from ..parameters import Physics
 from ..problem import JACOBIANS
@@ -499,45 +498,32 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orien
         fail("--resume continues the curve of an --out file: give --out")
     if out is not None:
         _writable(Path(out))
-    folder = Path(states) if states is not None else (states_folder(out) if out else None)
-    modes = modes or ("general" if orientation == "vorticity" else "symmetric")
     found: list[dict] = []
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
-        known = []
-        if resume and Path(out).exists():
-            known = read_checkpoint(out, folder, physics, disc, orientation=orientation,
-                                    modes=modes, xtol=xtol, jacobian=jacobian)  # fmt: skip
-            click.echo(f"resuming {out}: {len(known)} points with their states in {folder}",
-                       err=True)  # fmt: skip
-        elif resume:
-            click.echo(f"nothing to resume in {out} (no such file): tracing from the start",
+        keep, known = None, []
+        if out is not None or states is not None:
+            keep = Checkpoint(out, physics, disc, folder=states, orientation=orientation,
+                              modes=modes, xtol=xtol, jacobian=jacobian,
+                              extra={"command": command_line(ctx)})  # fmt: skip
+        if resume:
+            known = keep.resume()
+            click.echo(f"resuming {out}: {len(known)} points with their states in "
+                       f"{keep.folder}" if Path(out).exists() else
+                       f"nothing to resume in {out} (no such file): tracing from the start",
                        err=True)  # fmt: skip
         found = [p.to_dict() for p in known]
 
-        def keep(point) -> None:  # the state first: a point is listed once it can restart
-            write_point_state(folder, point, {"command": command_line(ctx)})
-
-        def progress(info: dict) -> None:  # each point echoed, and kept in --out as it comes
+        def progress(info: dict) -> None:  # each point echoed (kept by the checkpoint)
             _echo_progress(info)
             found.append(info)
-            if out is not None:
-                partial = {"vesicle_version": __version__, "v": physics.v,
-                           "degree": disc.degree, "grid": disc.grid, "partial": True,
-                           "xtol": xtol, "orientation": orientation, "modes": modes,
-                           "physics": {k: x for k, x in physics.to_dict().items()
-                                       if k not in ("lam", "chi")},
-                           "command": command_line(ctx), "type_change": None,
-                           "points": sorted(found, key=lambda p: p["chi"])}  # fmt: skip
-                _emit_json(partial, out, False)
 
         with _executor(workers, scheduler) as pool:
             curve = neutral_curve(physics, chis, disc, xtol=xtol, type_tol=type_tol,
                                   locate_type_change=not no_type_change, progress=progress,
                                   jacobian=jacobian, executor=pool, orientation=orientation,
-                                  modes=modes, known=known,
-                                  checkpoint=keep if folder is not None else None)  # fmt: skip
+                                  modes=modes, known=known, checkpoint=keep)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         kept = f" (the points found are in {out}; --resume continues)" if out and found else ""
         fail(str(err) + kept)
