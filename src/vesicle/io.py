@@ -66,6 +66,7 @@ __all__ = [
     "stamp",
     "write_atomically",
     "write_run",
+    "write_text_atomically",
 ]
 
 FORMAT = "vesicle-run"
@@ -295,6 +296,20 @@ def _library_versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             out[f"{name}_version"] = "not installed"
     return out
+
+
+def write_text_atomically(path: str | os.PathLike, text: str) -> Path:
+    """``path`` replaced by ``text`` at once (a crash, Ctrl-C or a full disk leaves the old
+    file or the new one, and no partial one): the JSON and HTML outputs' writer."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        tmp.write_text(text)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
 
 
 def write_atomically(path: str | os.PathLike, fill, nbytes: int) -> Path:

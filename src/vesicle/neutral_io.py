@@ -19,6 +19,7 @@ import os
 from pathlib import Path
 
 from . import __version__
+from .io import write_text_atomically
 from .neutral import NeutralPoint
 from .parameters import Discretisation, Physics
 from .stability import stability
@@ -160,10 +161,4 @@ class Checkpoint:
                    "xtol": self.xtol, "orientation": self.orientation, "modes": self.modes,
                    "physics": physics, **self.extra, "type_change": None,
                    "points": sorted(self.found, key=lambda p: p["chi"])}  # fmt: skip
-        tmp = self.out.with_name(self.out.name + ".tmp")
-        try:
-            tmp.write_text(json.dumps(partial, indent=1))
-            os.replace(tmp, self.out)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
+        write_text_atomically(self.out, json.dumps(partial, indent=1))

@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .io import write_text_atomically
 
 __all__ = ["ITEMS", "Item", "build_report", "write_index"]
 
@@ -672,18 +673,11 @@ def _run_compute(compute: Callable, folder: Path, quick: bool, options: dict) ->
 def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
                   progress: Callable[[str], None] | None) -> dict:
     content.update(quick=quick, vesicle_version=__version__)
-    _write_text_atomically(outdir / item.key / "item.json",
+    write_text_atomically(outdir / item.key / "item.json",
                           json.dumps(content, indent=1, default=str))  # fmt: skip
     if progress is not None:
         progress(f"{item.title}: {content['status']} in {content['seconds']:.0f} s")
     return content
-
-
-def _write_text_atomically(path: Path, text: str) -> None:
-    """``path`` replaced by ``text`` at once (a crash leaves the old file or the new one)."""
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 def _child_main(conn, payload: bytes, folder: str, quick: bool, options: dict,
@@ -781,7 +775,7 @@ def _record_report(outdir: Path, todo: list[Item], quick: bool, concurrent: bool
                     "concurrent": concurrent, "workers": options.get("workers"),
                     "scheduler": options.get("scheduler"), "vesicle_version": __version__,
                     "finished": time.strftime("%Y-%m-%d %H:%M:%S")})  # fmt: skip
-    _write_text_atomically(path, json.dumps({"calls": history}, indent=1))
+    write_text_atomically(path, json.dumps({"calls": history}, indent=1))
 
 
 def _rel(path: str, outdir: Path) -> str:

@@ -13,6 +13,7 @@ import numpy as np
 from ..branch import branch, parse_values, reach
 from ..config import read_config
 from ..critical import critical_lambda, critical_summary
+from ..io import write_text_atomically
 from ..neutral import neutral_curve
 from ..neutral_io import Checkpoint
 from ..parallel import executor
@@ -401,9 +402,7 @@ def _emit_json(result: dict, out: str | None, as_json: bool) -> bool:
     """Write ``result`` to ``out`` (atomically) and print it with ``--json``; returns whether
     it was printed (then nothing else is)."""
     if out is not None:
-        tmp = Path(str(out) + ".tmp")
-        tmp.write_text(json.dumps(result, indent=1))
-        tmp.replace(out)
+        write_text_atomically(out, json.dumps(result, indent=1))
     if as_json:
         click.echo(json.dumps(result))
     return as_json
