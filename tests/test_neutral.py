@@ -322,3 +322,126 @@ def test_a_resumed_trace_is_the_uninterrupted_one(curve, tmp_path):
     assert b.chi == 1.3 and b.lambda_c == pytest.approx(a.lambda_c, rel=1e-10, abs=0)
     assert b.omega_R == pytest.approx(a.omega_R, rel=1e-8)
     np.testing.assert_allclose(b.start.a, a.start.a, rtol=0, atol=1e-10)
+
+
+def test_tank_treading_past_a_fold_sets_lambda_c(monkeypatch):
+    """A model of the S-shaped branch next to the change of type (v = 0.90, N = 4: the branch
+    from low lam folds at F(chi), the part above it is stable up to its Hopf point H(chi)):
+    every fold point whose other branch is stable past the fold takes that branch's Hopf point
+    as lambda_c (with the fold kept as ``lower_fold``), so the curve is max(F, H) and the type
+    changes where H crosses F + PAST_FOLD xtol, not where the fold itself ends (the cusp, here
+    chi = 0.8).  The model's lines: F = 5.40 + 0.1 chi, H = 5.0 + 0.8 chi; they cross
+    3 xtol apart at chi = 0.403 / 0.7 = 0.5757."""
+    import vesicle.neutral as neutral
+
+    F, H = (lambda c: 5.40 + 0.1 * c), (lambda c: 5.0 + 0.8 * c)
+    starts = []
+
+    def point(self, start, chi, lam_pred):  # the branch from low lam: folds below the cusp
+        starts.append((chi, start))
+        if chi >= 0.8:
+            return neutral.NeutralPoint(chi, H(chi), "hopf", 0.1, 0.0, 0.3, True, 0.0,
+                                        start=("hopf", chi))  # fmt: skip
+        return neutral.NeutralPoint(chi, F(chi), "saddle-node", 0.0, 0.0, 0.3, True, 0.0,
+                                    start=("fold", chi))  # fmt: skip
+
+    def past_fold(self, fold, hopf):
+        assert fold.bifurcation == "saddle-node" and hopf.bifurcation == "hopf"
+        if H(fold.chi) <= fold.lambda_c + neutral.PAST_FOLD * self.xtol:
+            return None
+        return neutral.NeutralPoint(fold.chi, H(fold.chi), "hopf", 0.1, 0.0, 0.3, True, 0.0,
+                                    start=("upper", fold.chi),
+                                    lower_fold=fold.lambda_c)  # fmt: skip
+
+    monkeypatch.setattr(neutral._Tracer, "point", point)
+    monkeypatch.setattr(neutral._Tracer, "past_fold", past_fold)
+    monkeypatch.setattr(neutral, "critical_lambda",
+                        lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
+    monkeypatch.setattr(neutral, "reach", lambda *a, **k: None)
+    c = neutral_curve(vs.Physics(v=0.90), [0.3, 0.5, 0.6, 0.7, 1.0], DISC, type_tol=0.01)
+    kinds = {p.chi: (p.bifurcation, p.lower_fold) for p in c.points}
+    assert kinds[0.3] == ("saddle-node", None) and kinds[0.5] == ("saddle-node", None)
+    assert kinds[0.6] == ("hopf", pytest.approx(F(0.6))) and kinds[0.7][0] == "hopf"
+    assert [p.lambda_c for p in c.points] == pytest.approx([F(0.3), F(0.5), H(0.6), H(0.7),
+                                                            H(1.0)])  # fmt: skip
+    t = c.type_change
+    assert t["below"] == "saddle-node" and t["above"] == "hopf" and t["located"]
+    assert t["bracket"][0] < 0.403 / 0.7 < t["bracket"][1]
+    assert t["bracket"][1] / t["bracket"][0] <= 1.01
+    # every bisection point starts from the fold side's state (the branch from low lam)
+    bisected = {p.chi for p in c.bisection} - {p.chi for p in c.points}
+    assert bisected and all(s[0] == "fold" for x, s in starts if x in bisected)
+    assert c.to_dict()["points"][2]["lower_fold"] == pytest.approx(F(0.6))
+    assert "lower_fold" not in c.to_dict()["points"][0]
+
+
+def test_a_point_past_a_fold_is_read_back_as_its_fold(small_state, tmp_path):
+    """A fold replaced by the loss of stability of the branch past it keeps the fold's state
+    (the trace goes on from the branch from low lam); read back for a resume it is that fold
+    again (lambda_c = lower_fold, so that the resumed curve looks past it as the uninterrupted
+    one did), while a plain point is read back as written."""
+    import dataclasses
+
+    from vesicle.neutral import NeutralCurve, NeutralPoint
+    from vesicle.neutral_io import read_checkpoint, write_point_state
+
+    disc = vs.Discretisation(grid=12, degree=4)
+    at = {c: dataclasses.replace(small_state, problem=small_state.problem.replace(
+        physics=small_state.physics.replace(chi=c))) for c in (0.6, 0.7)}  # fmt: skip
+    hopf = NeutralPoint(0.7, 5.56, "hopf", 0.15, 0.03, 0.32, True, 1.0, start=at[0.7])
+    upper = NeutralPoint(0.6, 5.50, "hopf", 0.12, 0.04, 0.32, True, 1.0, start=at[0.6],
+                         lower_fold=5.45)  # fmt: skip
+    folder, out = tmp_path / "n.states", tmp_path / "n.json"
+    for p in (hopf, upper):
+        write_point_state(folder, p)
+    curve = NeutralCurve(small_state.physics, disc, [upper, hopf], None, [], 0.0)
+    out.write_text(json.dumps(curve.to_dict()))
+    assert json.loads(out.read_text())["points"][0]["lower_fold"] == 5.45
+    fold, again = read_checkpoint(out, folder, small_state.physics, disc)
+    assert (fold.chi, fold.lambda_c, fold.bifurcation, fold.lower_fold) == (
+        0.6, 5.45, "saddle-node", None)  # fmt: skip
+    assert again.to_dict() == hopf.to_dict()
+
+
+def test_what_counts_as_tank_treading_going_on_past_a_fold():
+    """Past the cusp of an S-shaped branch the real eigenvalue may poke above zero in a narrow
+    window (v = 0.90, chi = 0.6813, N = 4 on 16x32, from a pseudo-arclength scan: growth
+    <= 0.0019 for lam in [5.4724, 5.4770], curvature shift -0.0092, then stable up to the Hopf
+    point at 5.541): such a state counts as tank-treading going on; a resolvable real growth
+    or a growing complex pair does not.  Going up, the window's upper end regains stability
+    and the Hopf point loses it: only the second is lambda_c."""
+    from types import SimpleNamespace
+
+    from vesicle.branch import BranchPoint, SpecialPoint
+    from vesicle.neutral import _goes_on, _lost_upwards
+
+    def at(lam, w_r, w_i, shift=-0.0092):
+        omega = np.array([[-w_r, w_i], [w_r, w_i] if w_r else [0.0, -0.25]])
+        return BranchPoint(vs.Physics(v=0.90, chi=0.6813, lam=lam), None, omega, False, shift)
+
+    window, above = at(5.4757, 0.0, 0.00192), at(5.4802, 0.0, -0.0147)
+    hopf = at(5.5478, 0.154, 0.0045)
+    assert _goes_on(window) and _goes_on(above) and not _goes_on(hopf)
+    assert not _goes_on(at(5.4757, 0.0, 0.02))  # a real growth the resolution resolves
+    assert not _goes_on(at(5.4757, 0.0, 0.00192, shift=-0.001))
+    b = SimpleNamespace(points=[hopf, above, window])  # followed down in lam
+    regain = SpecialPoint("saddle-node", "lam", 5.4770, 0.0, True, (5.4802, 5.4757))
+    loss = SpecialPoint("hopf", "lam", 5.5413, 0.15, True, (5.5478, 5.4802))
+    assert not _lost_upwards(b, regain) and _lost_upwards(b, loss)
+
+
+@pytest.mark.slow
+def test_past_the_cusp_lambda_c_is_the_hopf_point():
+    """v = 0.90, chi = 0.6813, N = 4 on 16x32: the branch from low lam is monotone here (a
+    pseudo-arclength scan in lam, fixed arclength steps, never turns: dlam/ds >= 0.26), its real
+    eigenvalue crosses zero at 5.4723 and back at 5.4770 (growth <= 0.0019, curvature shift
+    0.0092), and it stays stable up to the Hopf point at 5.5401 (the scan's omega_I: -0.00282
+    at 5.53559, +0.00094 at 5.54170; natural continuation: -0.00008 at 5.54).  The tracer finds
+    the real crossing first and looks past it from chi = 1: lambda_c is the Hopf point, the
+    crossing kept as lower_fold."""
+    c = neutral_curve(vs.Physics(v=0.90), [0.6813, 1.0], DISC, locate_type_change=False)
+    p = c.points[0]
+    assert p.chi == 0.6813 and p.bifurcation == "hopf"
+    assert p.lambda_c == pytest.approx(5.5401, abs=2e-3)
+    assert p.lower_fold == pytest.approx(5.4723, abs=2e-3)
+    assert 0.13 < p.omega_R < 0.17  # the scan: 0.1443 at 5.5356, 0.1494 at 5.5417

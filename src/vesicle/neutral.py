@@ -31,7 +31,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from . import __version__
-from .branch import BranchPoint, SpecialPoint, branch, reach
+from .branch import REAL_TOLERANCE, BranchPoint, SpecialPoint, branch, reach
 from .critical import critical_lambda, vorticity_start_lambda
 from .parameters import Discretisation, Physics
 from .solver import SolverError
@@ -48,6 +48,10 @@ _FAILURES = (NewtonError, ShapeError, SolverError)
 
 #: Largest ratio between neighbouring chi of the trace (intermediate points are added).
 CHI_RATIO = 1.5
+
+#: How far past a fold (in units of ``xtol``, the fold's own tolerance) another branch must be
+#: stable for tank-treading to go on there (:meth:`_Tracer.past_fold`).
+PAST_FOLD = 3.0
 
 
 @dataclass(frozen=True)
@@ -71,13 +75,18 @@ class NeutralPoint:
     #: the stable state's ``curvature_shift`` (:mod:`vesicle.stability`): where it is above
     #: 1e-2 the resolution is too low for the multipliers to be negligible
     curvature_shift: float = 0.0
+    #: where the branch from low lam loses stability at a fold (or real crossing) at this lam
+    #: and tank-treading goes on, stable, on another branch above it (an S-shaped branch:
+    #: ``lambda_c`` is that branch's loss of stability; see :meth:`_Tracer.past_fold`)
+    lower_fold: float | None = None
 
     def to_dict(self) -> dict:
         return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
                 "omega_R": self.omega_R, "psi": self.psi, "D": self.D,
                 "located": self.located, "seconds": self.seconds,
                 "curvature_shift": self.curvature_shift,
-                **({"bracket": list(self.bracket)} if self.bracket else {})}  # fmt: skip
+                **({"bracket": list(self.bracket)} if self.bracket else {}),
+                **({} if self.lower_fold is None else {"lower_fold": self.lower_fold})}  # fmt: skip
 
     @classmethod
     def from_dict(cls, d: dict, start: SteadyResult | None = None) -> NeutralPoint:
@@ -87,7 +96,8 @@ class NeutralPoint:
                    float(d["omega_R"]), float(d["psi"]), float(d["D"]),
                    bool(d.get("located", True)), float(d.get("seconds", 0.0)),
                    tuple(map(float, bracket)) if bracket else None, start,
-                   float(d.get("curvature_shift", 0.0)))  # fmt: skip
+                   float(d.get("curvature_shift", 0.0)),
+                   None if d.get("lower_fold") is None else float(d["lower_fold"]))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -223,9 +233,22 @@ class _Tracer:
             self.resumed.add(chi)
             return self.known[chi]
         t0 = time.perf_counter()
-        side = self.side
-        state = self.stable_start(start, chi, lam_pred * (1.0 - side * self.margin))
+        state = self.stable_start(start, chi, lam_pred * (1.0 - self.side * self.margin))
         special, b = self.crossing(state, lam_pred)
+        p = self._point(chi, special, b, state, t0)
+        log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c,
+                 p.bifurcation, p.omega_R)  # fmt: skip
+        if self.checkpoint is not None:  # first: a point is listed only once its state is kept
+            self.checkpoint(p)
+        if self.progress is not None:
+            self.progress(p.to_dict())
+        return p
+
+    def _point(self, chi: float, special: SpecialPoint, b, state: SteadyResult, t0: float,
+               lower_fold: float | None = None) -> NeutralPoint:  # fmt: skip
+        """The point of the special point ``special`` of the branch ``b`` (followed from the
+        stable ``state``), with the state the next chi starts from."""
+        side = self.side
         stable_side = [p for p in b.points if side * (special.value - p.physics.lam) >= 0]
         below = [p for p in stable_side if p.most_unstable[1] < 0]
         nearest: BranchPoint = (max(below, key=lambda p: side * p.physics.lam) if below
@@ -239,18 +262,88 @@ class _Tracer:
             away.append((state.lam, state))
         start_from = max(away, key=lambda c: side * c[0])[1] if away else nearest.steady
         kind = "hopf" if special.kind == "hopf" else "saddle-node"
-        p = NeutralPoint(float(chi), float(special.value), kind, float(special.omega_R),
-                         float(nearest.steady.psi), float(nearest.steady.D),
-                         bool(special.located), time.perf_counter() - t0,
-                         None if special.located else tuple(map(float, special.bracket)),
-                         start_from, nearest.curvature_shift)  # fmt: skip
-        log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c, kind,
-                 p.omega_R)  # fmt: skip
-        if self.checkpoint is not None:  # first: a point is listed only once its state is kept
-            self.checkpoint(p)
-        if self.progress is not None:
-            self.progress(p.to_dict())
+        return NeutralPoint(float(chi), float(special.value), kind, float(special.omega_R),
+                            float(nearest.steady.psi), float(nearest.steady.D),
+                            bool(special.located), time.perf_counter() - t0,
+                            None if special.located else tuple(map(float, special.bracket)),
+                            start_from, nearest.curvature_shift, lower_fold)  # fmt: skip
+
+    def past_fold(self, fold: NeutralPoint, hopf: NeutralPoint) -> NeutralPoint | None:
+        """Whether tank-treading goes on past the fold of ``fold`` (the branch from low lam
+        loses stability there to a real eigenvalue) on another stable branch: the point of
+        that branch's own loss of stability if it does, else ``None``.
+
+        Next to the change of type the branch can be S-shaped (v = 0.90, chi = 0.65, N = 4 on
+        16x32: the branch from low lam folds at 5.4624; the part above it comes down to a
+        second fold at 5.4571, stable from there to its Hopf point at 5.4979).  Between the
+        first fold and that Hopf point the only TT state nearby is the upper one, and it is
+        stable: the vesicle tank-treads there, and lambda_c is the Hopf point.  Which part a
+        trace lands on depends on where it starts, so both are looked at.  The upper part is
+        reached from the Hopf neighbour ``hopf`` (larger chi) at its own lambda_c, which lies
+        above the fold curve and above the cusp where the two folds meet (at fixed lam below
+        the cusp a move in chi stays on the lower part), moved to ``fold.chi`` there, and
+        followed down in lam to ``PAST_FOLD * xtol`` above the fold.  Where the state there
+        is stable (or unstable only within the resolution, :func:`_goes_on`: past the cusp the
+        branch is monotone and only a narrow window of weak real instability is left), the
+        lowest crossing above it where the branch loses stability is the point (or, if none,
+        the branch is followed up as in :meth:`point`)."""
+        if self.side < 0 or fold.bifurcation == "hopf" or hopf.start is None:
+            return None
+        probe, top = fold.lambda_c + PAST_FOLD * self.xtol, hopf.lambda_c
+        if top <= probe:
+            return None
+        t0 = time.perf_counter()
+        try:
+            high = self.move(hopf.start, fold.chi, top, direct=False)
+            steps = max(1, math.ceil(math.log(top / probe) / math.log(1.0 + 0.5 * self.margin)))
+            values = [top * (probe / top) ** (k / steps) for k in range(1, steps + 1)]
+            values[-1] = probe
+            down = branch(high.physics, self.disc, "lam", values, start=high, xtol=self.xtol,
+                          arclength=False, modes=self.modes, **self.options)  # fmt: skip
+        except _FAILURES as err:
+            log.info("chi = %.4g: no other branch past the fold at %.6g (%s)", fold.chi,
+                     fold.lambda_c, err)  # fmt: skip
+            return None
+        end = down.points[-1]
+        if down.stopped or end.physics.lam != probe or not _goes_on(end):
+            log.info("chi = %.4g: no stable state past the fold at %.6g%s", fold.chi,
+                     fold.lambda_c, f" ({down.stopped})" if down.stopped else "")  # fmt: skip
+            return None
+        losses = [s for s in down.special_points if s.value > probe and _lost_upwards(down, s)]
+        if losses:
+            p = self._point(fold.chi, min(losses, key=lambda s: s.value), down, end.steady,
+                            t0, fold.lambda_c)  # fmt: skip
+        else:  # stable from the fold up to the Hopf neighbour's lambda_c: follow it up
+            special, up = self.crossing(high, top)
+            p = self._point(fold.chi, special, up, high, t0, fold.lambda_c)
+        log.warning("chi = %.4g: past the real crossing at lam = %.6g the vesicle goes on "
+                    "tank-treading (another part of the branch, stable, or the same part, "
+                    "unstable only within the resolution) up to the %s point at lam = %.6g "
+                    "(omega_R = %.4g): lambda_c is that point", fold.chi, fold.lambda_c,
+                    p.bifurcation, p.lambda_c, p.omega_R)  # fmt: skip
         return p
+
+
+def _goes_on(point: BranchPoint) -> bool:
+    """Whether tank-treading goes on at ``point``: it is stable, or its one unstable mode is
+    real and grows more slowly than the resolution can tell from zero (below the state's
+    ``curvature_shift``: past the cusp where the two folds of an S-shaped branch meet, the
+    branch runs on monotone in lam, and the real eigenvalue of SPEC 9's operator may still
+    poke above zero in a narrow window, an artefact of the multipliers' curvature: v = 0.90,
+    chi = 0.6813, N = 4 on 16x32: growth <= 0.0019 for lam in [5.4724, 5.4770], against a
+    curvature shift of 0.0092, and stable from there to the Hopf point at 5.541)."""
+    w_r, w_i = point.most_unstable
+    return w_i < 0 or (point.n_unstable == 1 and w_r <= REAL_TOLERANCE
+                       and w_i < abs(point.curvature_shift))  # fmt: skip
+
+
+def _lost_upwards(b, special: SpecialPoint) -> bool:
+    """Whether the branch ``b`` loses stability at ``special`` going up in lam (stable at the
+    lower end of its bracket, unstable at the upper), not regains it (the upper end of such a
+    window of real instability, :func:`_goes_on`)."""
+    at = {p.physics.lam: p for p in b.points}
+    lo, hi = (at.get(x) for x in sorted(special.bracket))
+    return lo is not None and hi is not None and lo.most_unstable[1] < 0 <= hi.most_unstable[1]
 
 
 def _predict(points: list[NeutralPoint], chi: float) -> float:
@@ -377,6 +470,11 @@ def neutral_curve(
     stopped_at = {f["chi"] for f in failed} | set(traced)
     failed += [{"chi": c, "error": f"no critical point to start from: {e}"}
                for c, e in seed_errors.items() if c not in stopped_at]  # fmt: skip
+    # fold points next to the Hopf part: where TT goes on past the fold on another branch,
+    # lambda_c is that branch's loss of stability (an S-shaped branch, _Tracer.past_fold)
+    upper = _past_folds(tracer, list(traced.values()) + between)
+    traced = {x: upper.get(x, p) for x, p in traced.items()}
+    between = [upper.get(p.chi, p) for p in between]
     points = [traced[x] for x in chis if x in traced]
     change, bisection = None, []
     if locate_type_change:
@@ -434,8 +532,31 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
     return tracer.point(start, chi, lam_c)
 
 
+def _past_folds(tracer: _Tracer, points: list[NeutralPoint]) -> dict[float, NeutralPoint]:
+    """Fold points replaced by :meth:`_Tracer.past_fold`, by chi: from each fold point whose
+    neighbour at larger chi is a Hopf point down in chi, while tank-treading goes on past
+    the fold (each found point the Hopf neighbour of the next)."""
+    points = sorted(points, key=lambda p: p.chi)
+    replaced: dict[float, NeutralPoint] = {}
+    for i in range(len(points) - 1, 0, -1):
+        hopf = points[i]
+        if hopf.bifurcation != "hopf" or points[i - 1].bifurcation == "hopf":
+            continue
+        for fold in points[i - 1 :: -1]:
+            if fold.bifurcation == "hopf" or fold.chi in replaced:
+                break
+            p = tracer.past_fold(fold, hopf)
+            if p is None:
+                break
+            replaced[fold.chi] = hopf = p
+    return replaced
+
+
 def _type_change(tracer: _Tracer, points: list[NeutralPoint], tol: float):
-    """Bisection in log chi between the first neighbours of different type."""
+    """Bisection in log chi between the first neighbours of different type.  Each new chi
+    starts from the fold side's state (the branch from low lam), and where that branch
+    folds, the Hopf side's branch is looked at past the fold (:meth:`_Tracer.past_fold`):
+    lambda_c is the larger of the two."""
     for a, b in itertools.pairwise(points):
         if a.bifurcation != b.bifurcation:
             break
@@ -444,11 +565,13 @@ def _type_change(tracer: _Tracer, points: list[NeutralPoint], tol: float):
     extra = []
     while b.chi / a.chi > 1.0 + tol:
         mid = math.sqrt(a.chi * b.chi)
-        near = a if abs(math.log(mid / a.chi)) <= abs(math.log(b.chi / mid)) else b
+        fold, hopf = (a, b) if b.bifurcation == "hopf" else (b, a)
         lam = a.lambda_c + (b.lambda_c - a.lambda_c) * math.log(mid / a.chi) / math.log(
             b.chi / a.chi)  # fmt: skip
         try:
-            p = tracer.point(near.start, mid, lam)
+            p = tracer.point(fold.start, mid, lam)
+            if p.bifurcation != "hopf":
+                p = tracer.past_fold(p, hopf) or p
         except (*_FAILURES, ValueError) as err:  # next to the type change the fold is hard
             log.warning("type change: no critical point at chi = %.4g (%s); bracket kept at "
                         "[%.4g, %.4g]", mid, err, a.chi, b.chi)  # fmt: skip

@@ -13,6 +13,7 @@ folder, before the point is listed in the JSON; :func:`read_checkpoint` reads th
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import logging
 import os
@@ -110,7 +111,17 @@ def read_checkpoint(
         except ValueError as err:
             log.warning("chi = %.4g is traced again: %s (%s)", entry["chi"], err, path)
             continue
-        points.append(NeutralPoint.from_dict(entry, start))
+        point = NeutralPoint.from_dict(entry, start)
+        if point.lower_fold is not None:
+            # a fold replaced by the loss of stability of the branch past it (an S-shaped
+            # branch, neutral._Tracer.past_fold): the state kept is the fold's (the branch from
+            # low lam, which the trace goes on from), so the point is read back as that fold
+            # and the resumed curve looks past it again, as the uninterrupted one did (psi and
+            # D are the other branch's until then)
+            point = dataclasses.replace(point, lambda_c=point.lower_fold,
+                                        bifurcation="saddle-node", omega_R=0.0, located=True,
+                                        bracket=None, lower_fold=None)  # fmt: skip
+        points.append(point)
     return points
 
 

@@ -537,6 +537,8 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orien
     for p in result["points"]:
         estimate = ("" if p.get("located", True) else
                     " (estimate: lambda_c in [{:.6g}, {:.6g}])".format(*p["bracket"]))
+        if p.get("lower_fold") is not None:  # tank-treading goes on past a real crossing
+            estimate += f" (past the real crossing at {p['lower_fold']:.6g})"
         click.echo(f"chi={p['chi']:<10.5g} lambda_c={p['lambda_c']:<10.6g} {p['bifurcation']:<12} "
                    f"omega_R={p['omega_R']:.4g}{estimate}")  # fmt: skip
     if result["type_change"]:
