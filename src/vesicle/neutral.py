@@ -76,8 +76,9 @@ class NeutralPoint:
     #: 1e-2 the resolution is too low for the multipliers to be negligible
     curvature_shift: float = 0.0
     #: where the branch from low lam loses stability at a fold (or real crossing) at this lam
-    #: and tank-treading goes on, stable, on another branch above it (an S-shaped branch:
-    #: ``lambda_c`` is that branch's loss of stability; see :meth:`_Tracer.past_fold`)
+    #: and tank-treading goes on past it (on the upper part of an S-shaped branch, or past a
+    #: window of unresolved real growth): ``lambda_c`` is the loss of stability further up
+    #: (see :meth:`_Tracer.past_fold`)
     lower_fold: float | None = None
 
     def to_dict(self) -> dict:
@@ -273,9 +274,10 @@ class _Tracer:
         loses stability there to a real eigenvalue) on another stable branch: the point of
         that branch's own loss of stability if it does, else ``None``.
 
-        Next to the change of type the branch can be S-shaped (v = 0.90, chi = 0.65, N = 4 on
-        16x32: the branch from low lam folds at 5.4624; the part above it comes down to a
-        second fold at 5.4571, stable from there to its Hopf point at 5.4979).  Between the
+        Next to the change of type the branch can be S-shaped (v = 0.90, chi = 0.6484, N = 4
+        on 16x32, by pseudo-arclength: the branch from low lam folds at 5.4618; the part above
+        it comes down to a second fold at 5.4565, stable from there to its Hopf point at
+        5.4955).  Between the
         first fold and that Hopf point the only TT state nearby is the upper one, and it is
         stable: the vesicle tank-treads there, and lambda_c is the Hopf point.  Which part a
         trace lands on depends on where it starts, so both are looked at.  The upper part is
