@@ -49,8 +49,8 @@ _FAILURES = (NewtonError, ShapeError, SolverError)
 #: Largest ratio between neighbouring chi of the trace (intermediate points are added).
 CHI_RATIO = 1.5
 
-#: How far past a fold (in units of ``xtol``, the fold's own tolerance) another branch must be
-#: stable for tank-treading to go on there (:meth:`_Tracer.past_fold`).
+#: How far past a fold or real crossing (in units of ``xtol``, its own tolerance) tank-treading
+#: must go on, stable or unstable only within the resolution (:meth:`_Tracer.past_fold`).
 PAST_FOLD = 3.0
 
 
