@@ -216,3 +216,23 @@ def test_the_fold_is_the_zero_of_the_curvature_form_of_the_stability_operator():
     w_after = stability(after.steady, curvature=True).most_unstable[1]
     assert w_before < 0 < w_after and max(-w_before, w_after) < 5e-3
     assert before.most_unstable[1] > 0.03  # SPEC §9's operator: unstable before the turn
+
+
+def test_the_tangent_predictor_of_a_lone_start_is_second_order(hopf_branch):
+    """The first step from a start has the tangent predictor ``a + (da/dlam) h`` (so that the
+    jump guard works from the first step).  Taylor: its error is O(h^2), so halving h divides
+    it by about 4 (the states at lam = 8.0 and 8.2 from the fixture, 8.1 solved here; all
+    converged to residual 1e-8, far below the errors compared).  A wrong sign or a wrong dG/dlam
+    would make the error O(h), a ratio near 2."""
+    from vesicle.branch import _analyse, _Tracer
+    from vesicle.steady import steady_tank_treading
+
+    p0, p2 = (next(p for p in hopf_branch.points if p.physics.lam == x) for x in (8.0, 8.2))
+    tracer = _Tracer(p0.physics, hopf_branch.discretisation, "lam", None, None, 4)
+    start = tracer.add(_analyse(p0.steady, requested=False))
+    mid = steady_tank_treading(p0.physics.replace(lam=8.1), hopf_branch.discretisation,
+                               initial=p0.steady)  # fmt: skip
+    err = [np.linalg.norm(tracer.tangent_guess(start, r.physics.lam) - r.a)
+           for r in (mid, p2.steady)]  # fmt: skip
+    # measured: errors 2.04e-4 and 7.70e-4 (ratio 3.78) against a step of 7.75e-3
+    assert 3.0 < err[1] / err[0] < 5.0

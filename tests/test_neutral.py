@@ -445,3 +445,24 @@ def test_past_the_cusp_lambda_c_is_the_hopf_point():
     assert p.lambda_c == pytest.approx(5.5401, abs=2e-3)
     assert p.lower_fold == pytest.approx(5.4723, abs=2e-3)
     assert 0.13 < p.omega_R < 0.17  # the scan: 0.1443 at 5.5356, 0.1494 at 5.5417
+
+
+@pytest.mark.slow
+def test_a_step_past_the_fold_of_an_s_shaped_branch_is_refused():
+    """v = 0.95, chi = 0.2449, N = 4 on 16x32: a pseudo-arclength scan in lam (fixed arclength
+    steps, docs/continuation.md) shows an S-shaped branch: the part from low lam folds at
+    lam = 7.510, the upper part (from its own fold near 7.41) has a Hopf point at 7.446, so it
+    is unstable at 7.510 and lambda_c is the fold.  Before the first step of a branch had a
+    predictor, the 3 % step from 7.388 to 7.610 landed on the upper part unseen and the
+    crossing was reported there (Hopf 7.4457, or a saddle-node at 7.4567 between the lower
+    and the middle part, depending on the start)."""
+    from vesicle.branch import reach
+    from vesicle.neutral import _Tracer
+
+    chi = 0.2449
+    tracer = _Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
+    start = reach(vs.Physics(v=0.95, chi=chi, lam=7.2), DISC)  # one state there, below the S
+    p = tracer.point(start, chi, 7.6166)  # the bisection's prediction, from chi = 0.2 and 0.3
+    assert p.bifurcation == "saddle-node" and p.located
+    assert p.lambda_c == pytest.approx(7.510, abs=2e-3)
+    assert p.psi > -0.06  # the lower part's psi (about -0.05 at the fold; the upper part's -0.19)

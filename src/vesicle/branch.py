@@ -301,6 +301,9 @@ class _Tracer:
                 v0, v1 = self.value(p0), self.value(p1)
                 if v1 != v0:  # secant predictor in the basis coordinates
                     guess = p1.steady.a + (p1.steady.a - p0.steady.a) * (value - v1) / (v1 - v0)
+            elif on_path:  # the first step from a lone start: the tangent predictor, so that
+                # the jump guard works from the first step on
+                guess = self.tangent_guess(order[0], value)
         steady = steady_tank_treading(
             self.at(value),
             self.disc,
@@ -327,6 +330,30 @@ class _Tracer:
             self.progress({self.parameter: value, "psi": steady.psi, "omega_R": w_r,
                            "omega_I": w_i, "solves": steady.solves})  # fmt: skip
         return point
+
+    def tangent_guess(self, point: BranchPoint, value: float) -> np.ndarray | None:
+        """The basis coordinates at ``value`` predicted along the branch's tangent at
+        ``point`` (``dy/dp = -G_y^-1 G_p``, one solve for ``G_p``).
+
+        Without it the first step from a start had no predictor, so no jump guard, and a step
+        past a fold could land on another part of the branch unseen (v = 0.95, chi = 0.2449,
+        N = 4 on 16x32: from the stable state at lam = 7.388, the 3 % step to 7.610 converged on
+        the upper part of an S-shaped branch, past the fold at 7.510, and the crossing was
+        located there; with this predictor Newton diverges at 7.610, and the corrector at 7.520
+        lands 4.3 predictor steps away: refused).  ``None`` where the state has no Jacobian or
+        ``G_y`` is singular (at a fold): the step is then taken without a predictor."""
+        steady = point.steady
+        if steady.jacobian is None:
+            return None
+        try:
+            dy = -np.linalg.solve(_blocks(steady), _Arclength(self, point).G_p(steady))
+        except (np.linalg.LinAlgError, NewtonError, ShapeError, SolverError) as err:
+            log.info("no tangent predictor at %s = %.6g (%s)", self.parameter,
+                     self.value(point), err)  # fmt: skip
+            return None
+        if not np.all(np.isfinite(dy)):
+            return None
+        return steady.a + dy[: steady.a.size] * (value - self.value(point))
 
     def step_to(self, value: float) -> BranchPoint:
         """Reach ``value`` from the last point, halving failed steps and growing them back by
