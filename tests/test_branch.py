@@ -102,25 +102,6 @@ def test_fold_estimate_follows_the_square_root_law():
     assert _fold_estimate(tracer) is None
 
 
-def test_a_failed_step_past_the_fold_the_square_root_law_predicts_is_not_halved():
-    """The model branch of the test above (fold at 6.1, from two points): a failed step whose
-    interval holds the predicted fold hands over to the arclength; one that stops short of it,
-    goes the other way, or has a complex leading pair is halved as before."""
-    from vesicle.branch import _fold_ahead, _Tracer
-
-    tracer = _Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4)
-    assert _fold_ahead(tracer, 6.5) is None  # no points
-    for lam in (5.0, 5.5):
-        omega = np.array([[0.0, -np.sqrt(0.03 * (6.1 - lam))], [1.0, -1.0]])
-        tracer.add(vs.BranchPoint(vs.Physics(lam=lam, chi=0.2), None, omega, True))
-    assert _fold_ahead(tracer, 6.5) == pytest.approx(6.1, rel=1e-12)
-    assert _fold_ahead(tracer, 6.0) is None  # the fold lies beyond the step
-    assert _fold_ahead(tracer, 5.2) is None  # behind
-    tracer.path[-1] = vs.BranchPoint(vs.Physics(lam=5.5, chi=0.2), None,
-                                       np.array([[0.4, -0.01]]), True)  # fmt: skip
-    assert _fold_ahead(tracer, 6.5) is None
-
-
 @pytest.mark.slow
 def test_a_hard_start_is_reached_by_continuation():
     """chi = 0.2, lam = 6 (N = 4, 16 x 32): Newton from the tilted spheroid fails there (near

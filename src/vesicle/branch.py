@@ -78,15 +78,6 @@ BRANCH_ITERATIONS = 25
 #: on another branch (a plain solve beyond a fold lands elsewhere, SPEC §16): the step is halved.
 JUMP = 1.0
 
-#: Where a failed step holds the fold the square-root law predicts, the next step goes this
-#: share of the way to it (short of it, where the branch exists) instead of halfway.
-APPROACH = 0.7
-
-#: The arclength takes over once the predicted fold is within this share of the last step
-#: (its first step is half the last one: from a whole step away it failed, chi = 0.2, N = 4,
-#: from lam = 7.25 with the fold at 7.483).
-HANDOVER = 0.7
-
 #: |omega_R| below which the most unstable mode counts as real (saddle-node, not Hopf).
 REAL_TOLERANCE = 1e-2
 
@@ -366,33 +357,17 @@ class _Tracer:
 
     def step_to(self, value: float) -> BranchPoint:
         """Reach ``value`` from the last point, halving failed steps and growing them back by
-        at most 2 after each success (refinement points).
-
-        Where a step has failed and the square-root law of the last points (:func:`_fold_ahead`)
-        puts a fold inside it, the next step goes to ``APPROACH`` of the way to that fold
-        instead of halfway, and once the fold is predicted within ``HANDOVER`` of the last
-        step from the last point,
-        natural continuation stops there and the pseudo-arclength takes over (each step past
-        the fold costs a Newton that diverges or stalls, 13-25 iterations, and halving on
-        takes several)."""
+        at most 2 after each success (refinement points)."""
         last = self.value(self.path[-1])
-        target, halvings, failed = value, 0, False
+        target, halvings = value, 0
         while True:
             try:
                 point = self.correct(target, requested=target == value)
             except (NewtonError, ShapeError, SolverError, BranchJump) as err:
-                failed = True
-                fold = _fold_ahead(self, target)
-                if fold is not None and abs(fold - last) <= HANDOVER * self.last_step():
-                    log.info("step to %s = %.6g failed (%s), past the fold the square-root law "
-                             "puts at %.6g: by pseudo-arclength", self.parameter, target, err,
-                             fold)  # fmt: skip
-                    raise _Stop(target, last, err, halvings, fold) from err
                 if halvings >= self.max_halvings:
-                    raise _Stop(target, last, err, halvings) from err
+                    raise _Stop(target, last, err) from err
                 halvings += 1
-                share = 0.5 if fold is None else APPROACH * (fold - last) / (target - last)
-                target = last + share * (target - last)
+                target = last + 0.5 * (target - last)
                 log.info("step failed (%s); trying %s = %.6g", err, self.parameter, target)
                 continue
             if target == value:
@@ -404,19 +379,7 @@ class _Tracer:
             # (measured: chi = 0.2, N = 4, from lam = 7.48271 to 7.62918 past the fold at
             # 7.4833, reported as a Hopf point at 7.4845)
             step, last, halvings = target - last, target, 0
-            fold = _fold_ahead(self, value) if failed else None
-            if fold is not None and abs(fold - last) <= HANDOVER * abs(step):
-                cause = RuntimeError(f"the square-root law puts the fold at {fold:.6g}, within "
-                                     f"a step of {self.parameter} = {last:.6g}")  # fmt: skip
-                log.info("%s: by pseudo-arclength", cause)
-                raise _Stop(value, last, cause, halvings, fold)
             target = value if abs(value - last) <= 2.0 * abs(step) else last + 2.0 * step
-
-    def last_step(self) -> float:
-        """The length in the parameter of the last step of the path (0 with one point)."""
-        if len(self.path) < 2:
-            return 0.0
-        return abs(self.value(self.path[-1]) - self.value(self.path[-2]))
 
 
 class BranchJump(RuntimeError):
@@ -424,11 +387,9 @@ class BranchJump(RuntimeError):
 
 
 class _Stop(Exception):
-    def __init__(self, target: float, last: float, cause: Exception, halvings: int,
-                 fold: float | None = None):  # fmt: skip
+    def __init__(self, target: float, last: float, cause: Exception):
         super().__init__(str(cause))
         self.target, self.last, self.cause = target, last, cause
-        self.halvings, self.fold = halvings, fold
 
 
 def branch(
@@ -511,11 +472,9 @@ def branch(
             tracer.step_to(value)
     except _Stop as stop:
         stopped_between = (float(stop.last), float(stop.target))
-        ahead = ("" if stop.fold is None else
-                 f", past the fold the square-root law puts at {stop.fold:.6g}")  # fmt: skip
         stopped = (
             f"no steady state found beyond {parameter} = {stop.last:.6g} (towards "
-            f"{stop.target:.6g}, after {stop.halvings} halvings{ahead}): {stop.cause}"
+            f"{stop.target:.6g}, after {max_halvings} halvings): {stop.cause}"
         )
         log.warning("branch stopped: %s", stopped)
     specials = _special_points(tracer, locate, xtol)
@@ -575,30 +534,10 @@ def _locate(tracer: _Tracer, p0: BranchPoint, p1: BranchPoint, locate: bool, xto
     return SpecialPoint(kind, tracer.parameter, float(x), float(w_r), locate, (x0, x1))
 
 
-def _fold_ahead(tracer: _Tracer, target: float) -> float | None:
-    """The fold the square-root law of the last two or three points puts between the last point
-    and ``target`` (``None`` if it puts none there, or the leading eigenvalue is complex).
-
-    A step to ``target`` that failed there is not halved on towards the fold (each halved
-    step that fails costs a diverging or stalling Newton, 13-25 iterations): natural
-    continuation stops and the pseudo-arclength starts from the last two points.  Measured at
-    v = 0.95, chi = 0.2449, N = 4 on 16x32: the four halvings after the last point at 7.499
-    (fold 7.510) took 33 s of the 75 s of the point."""
-    if len(tracer.path) < 2:
-        return None
-    fold = _fold_estimate(tracer)
-    if fold is None or not np.isfinite(fold.value):
-        return None
-    last = tracer.value(tracer.path[-1])
-    ahead, before = fold.value - last, target - last
-    return fold.value if ahead * before > 0 and abs(ahead) < abs(before) else None
-
-
 def _fold_estimate(tracer: _Tracer) -> SpecialPoint | None:
-    """The fold from the square-root law of a real leading eigenvalue over the last (up to
-    three) points."""
+    """The fold from the square-root law of a real leading eigenvalue over the last points."""
     last = tracer.path[-3:]
-    if len(last) < 2 or any(p.most_unstable[0] > REAL_TOLERANCE for p in last):
+    if any(p.most_unstable[0] > REAL_TOLERANCE for p in last):
         return None
     x = np.array([tracer.value(p) for p in last])
     g2 = np.array([p.most_unstable[1] ** 2 for p in last])
