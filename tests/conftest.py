@@ -20,7 +20,7 @@ def _stand_in(state, calls, fail_above=None):
     from vesicle.neutral import NeutralPoint
     from vesicle.steady import NewtonError
 
-    def point(self, start, chi, lam_pred):
+    def point(self, start, chi, lam_pred, fallbacks=()):
         if chi in self.known:
             self.resumed.add(chi)
             return self.known[chi]

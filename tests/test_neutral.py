@@ -113,7 +113,7 @@ def test_phase_diagram_of_neutral_files(tmp_path):
     assert (tmp_path / "fig" / "phase_diagram.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def _fake_point(self, start, chi, lam_pred):
+def _fake_point(self, start, chi, lam_pred, fallbacks=()):
     """A stand-in for the tracer's point (no numerics): fails beyond chi = 2."""
     from vesicle.neutral import NeutralPoint
     from vesicle.steady import NewtonError
@@ -466,3 +466,65 @@ def test_a_step_past_the_fold_of_an_s_shaped_branch_is_refused():
     assert p.bifurcation == "saddle-node" and p.located
     assert p.lambda_c == pytest.approx(7.510, abs=2e-3)
     assert p.psi > -0.06  # the lower part's psi (about -0.05 at the fold; the upper part's -0.19)
+
+
+def _at_chi(state, chi, lam):
+    """``state`` relabelled to (chi, lam): a stand-in start state, no numerics."""
+    import dataclasses
+
+    physics = state.physics.replace(chi=chi, lam=lam)
+    return dataclasses.replace(state, problem=state.problem.replace(physics=physics))
+
+
+def test_a_new_chi_starts_from_further_back_where_the_neighbour_reaches_nothing(
+    small_state, monkeypatch
+):
+    """Next to the cusp the neighbour's state can sit on the upper part of an S-shaped branch
+    that folds going down in lam (v = 0.95, chi = 0.27, N = 8: every lam below 7.598 failed
+    from it): the move is then tried from the next state back along the curve, at the same
+    lam, before lam is lowered."""
+    import types
+
+    import vesicle.neutral as neutral
+    from vesicle.steady import NewtonError
+
+    near, far = _at_chi(small_state, 0.27, 7.6), _at_chi(small_state, 0.3746, 7.8)
+    calls = []
+
+    def move(self, origin, chi, lam, direct=True):
+        calls.append((origin.chi, lam, direct))
+        if origin is near:
+            raise NewtonError("the branch folds going down")
+        return _at_chi(small_state, chi, lam)
+
+    monkeypatch.setattr(neutral._Tracer, "move", move)
+    stable = types.SimpleNamespace(most_unstable=(-0.1, -0.02))
+    monkeypatch.setattr(neutral, "stability", lambda *a, **k: stable)
+    tracer = neutral._Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
+    state = tracer.stable_start(near, 0.23, 7.26, [far])
+    assert (state.chi, state.lam) == (0.23, 7.26)  # reached at the first lam asked
+    assert calls == [(0.27, 7.26, True), (0.27, 7.26, False), (0.3746, 7.26, True)]
+    with pytest.raises(NewtonError, match=r"no stable tank-treading state found at chi = 0\.23"):
+        tracer.stable_start(near, 0.23, 7.26)  # no fallback: lam lowered 8 times, then refused
+
+
+def test_the_trace_offers_the_states_of_the_two_points_further_back(small_state, monkeypatch):
+    """Each new chi of the trace gets its neighbour's start state and, as fallbacks, those of
+    the two points before it (nearest first)."""
+    import vesicle.neutral as neutral
+    from vesicle.neutral import NeutralPoint
+
+    offered = {}
+
+    def point(self, start, chi, lam_pred, fallbacks=()):
+        offered[chi] = (start and start.chi, [f.chi for f in fallbacks])
+        return NeutralPoint(chi, 8.0, "hopf", 0.3, -0.01, 0.2, True, 1.0,
+                            start=_at_chi(small_state, chi, 7.8))  # fmt: skip
+
+    monkeypatch.setattr(neutral, "_seed", lambda tracer, chi, *a: point(tracer, None, chi, 8.0))
+    monkeypatch.setattr(neutral._Tracer, "point", point)
+    neutral_curve(vs.Physics(v=0.95), [1.0, 0.7, 0.5, 0.35, 0.25], DISC,
+                  locate_type_change=False)  # fmt: skip
+    assert offered[0.7] == (1.0, [])
+    assert offered[0.5] == (0.7, [1.0])
+    assert offered[0.25] == (0.35, [0.5, 0.7])

@@ -46,6 +46,10 @@ log = logging.getLogger(__name__)
 
 _FAILURES = (NewtonError, ShapeError, SolverError)
 
+#: How many points further back along the curve a new chi may start from where its
+#: neighbour's state reaches no stable state (:meth:`_Tracer.stable_start`).
+FALLBACKS = 2
+
 #: Largest ratio between neighbouring chi of the trace (intermediate points are added).
 CHI_RATIO = 1.5
 
@@ -184,20 +188,36 @@ class _Tracer:
             start = self._to(start, "lam", lam, direct)
         return start if start.chi == chi else self._to(start, "chi", chi, direct)
 
-    def stable_start(self, start: SteadyResult, chi: float, lam: float) -> SteadyResult:
+    def stable_start(
+        self, start: SteadyResult, chi: float, lam: float, fallbacks: Sequence[SteadyResult] = ()
+    ) -> SteadyResult:
         """A stable state at ``chi`` at or below ``lam``: where there is none there (beyond a
         fold, or past the loss of stability) lam is lowered by twice the margin and the move
-        repeated from ``start``."""
+        repeated.  At each lam the move is tried from ``start`` first, then from each of
+        ``fallbacks`` (the start states of points further back along the curve): next to the
+        cusp the neighbour's state can lie on the upper part of an S-shaped branch, which
+        folds going down in lam at its chi, while a state further from the cusp, where the
+        branch is monotone, passes below the S (v = 0.95, chi = 0.27, N = 8 on 32x64: from the
+        Hopf point 7.668 the branch stops at lam = 7.598 going down, and every lower lam
+        failed from there, 2 h of correctors)."""
+        starts = [start, *(f for f in fallbacks if f is not None)]
         for _ in range(8):
-            for direct in (True, False):  # a direct Newton may land on another state: a branch
-                try:
-                    state = self.move(start, chi, lam, direct)
-                except _FAILURES as err:
-                    log.info("chi = %.4g: no state reached at lam = %.4g (%s)", chi, lam, err)
-                    continue
-                if stability(state, modes=self.modes).most_unstable[1] < 0:
-                    return state
-                log.info("chi = %.4g: the state at lam = %.4g is not stable", chi, lam)
+            for k, origin in enumerate(starts):
+                for direct in (True, False):  # a direct Newton may land on another state
+                    try:
+                        state = self.move(origin, chi, lam, direct)
+                    except _FAILURES as err:
+                        log.info("chi = %.4g: no state reached at lam = %.4g from chi = %.4g "
+                                 "(%s)", chi, lam, origin.chi, err)  # fmt: skip
+                        continue
+                    if stability(state, modes=self.modes).most_unstable[1] < 0:
+                        if k:
+                            log.warning("chi = %.4g: started from the state at chi = %.4g, "
+                                        "lam = %.4g (none reached from the neighbour at chi "
+                                        "= %.4g)", chi, origin.chi, origin.lam,
+                                        start.chi)  # fmt: skip
+                        return state
+                    log.info("chi = %.4g: the state at lam = %.4g is not stable", chi, lam)
             lam *= 1.0 - 2.0 * self.margin * self.side
         raise NewtonError(f"no stable tank-treading state found at chi = {chi:g} "
                           f"{'down' if self.side > 0 else 'up'} to lam = {lam:g}")  # fmt: skip
@@ -226,7 +246,10 @@ class _Tracer:
         raise NewtonError(f"no loss of stability at chi = {state.chi:g} "
                           f"{'below' if side > 0 else 'above'} lam = {lam:g}")  # fmt: skip
 
-    def point(self, start: SteadyResult, chi: float, lam_pred: float) -> NeutralPoint:
+    def point(
+        self, start: SteadyResult, chi: float, lam_pred: float,
+        fallbacks: Sequence[SteadyResult] = (),
+    ) -> NeutralPoint:
         if chi in self.known:  # found before the curve was interrupted: its start state is
             # the one stored, bit for bit, so the trace goes on as it would have
             log.info("chi = %.4g: lambda_c = %.6g from the checkpoint", chi,
@@ -234,7 +257,8 @@ class _Tracer:
             self.resumed.add(chi)
             return self.known[chi]
         t0 = time.perf_counter()
-        state = self.stable_start(start, chi, lam_pred * (1.0 - self.side * self.margin))
+        state = self.stable_start(start, chi, lam_pred * (1.0 - self.side * self.margin),
+                                  fallbacks)  # fmt: skip
         special, b = self.crossing(state, lam_pred)
         p = self._point(chi, special, b, state, t0)
         log.info("chi = %.4g: lambda_c = %.6g (%s, omega_R = %.4g)", chi, p.lambda_c,
@@ -459,7 +483,8 @@ def neutral_curve(
                 for k in range(1, steps + 1):  # intermediate chi where the asked ones are far apart
                     here = path[-1].chi * (x / path[-1].chi) ** (1.0 / (steps - k + 1))
                     p = tracer.point(path[-1].start, x if k == steps else here,
-                                     _predict(path, here))  # fmt: skip
+                                     _predict(path, here),
+                                     [q.start for q in path[::-1][1 : 1 + FALLBACKS]])  # fmt: skip
                     path.append(p)
                     if k < steps:
                         between.append(p)
