@@ -337,7 +337,8 @@ def test_tank_treading_past_a_fold_sets_lambda_c(monkeypatch):
     F, H = (lambda c: 5.40 + 0.1 * c), (lambda c: 5.0 + 0.8 * c)
     starts = []
 
-    def point(self, start, chi, lam_pred):  # the branch from low lam: folds below the cusp
+    # the branch from low lam: folds below the cusp
+    def point(self, start, chi, lam_pred, fallbacks=()):
         starts.append((chi, start))
         if chi >= 0.8:
             return neutral.NeutralPoint(chi, H(chi), "hopf", 0.1, 0.0, 0.3, True, 0.0,
