@@ -529,3 +529,32 @@ def test_the_trace_offers_the_states_of_the_two_points_further_back(small_state,
     assert offered[0.7] == (1.0, [])
     assert offered[0.5] == (0.7, [1.0])
     assert offered[0.25] == (0.35, [0.5, 0.7])
+
+
+def test_a_branch_leg_that_failed_is_not_run_again_from_the_same_state(small_state, monkeypatch):
+    """Each lam is tried directly (Newton, then a branch where Newton fails) and then by
+    branches alone: the second try's branch from the same state to the same value is the same
+    computation, so its failure is taken from the first (at N = 8 such a branch costs minutes)."""
+    import types
+
+    import vesicle.neutral as neutral
+    from vesicle.steady import NewtonError
+
+    legs = []
+
+    def branch(physics, disc, parameter, values, start=None, **kw):
+        legs.append((parameter, values[0]))
+        return types.SimpleNamespace(stopped="no steady state found beyond it", points=[])
+
+    def newton(self, physics, start):
+        raise NewtonError("diverged")
+
+    monkeypatch.setattr(neutral, "branch", branch)
+    monkeypatch.setattr(neutral._Tracer, "newton", newton)
+    tracer = neutral._Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
+    start = _at_chi(small_state, 0.27, 7.6)
+    with pytest.raises(NewtonError, match="no stable tank-treading state"):
+        tracer.stable_start(start, 0.23, 7.26)
+    lams = [7.26 * 0.94**k for k in range(8)]  # lowered by twice the margin each time
+    assert [p for p, _ in legs] == ["lam"] * 8  # one branch a lam, not two
+    assert [v for _, v in legs] == pytest.approx(lams)

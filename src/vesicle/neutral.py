@@ -154,6 +154,9 @@ class _Tracer:
         # +1: TT stable below lambda_c (the in-plane branch); -1: stable above it (vorticity)
         self.side = side
         self.options = {"jacobian": jacobian, "executor": executor}
+        # branch legs of _to that failed, by (id of the start state, parameter, value), with
+        # the state and the error: emptied at each new point
+        self._failed_legs: dict[tuple, tuple] = {}
 
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
@@ -173,10 +176,16 @@ class _Tracer:
             except _FAILURES as err:
                 log.info("direct move to %s = %.4g failed (%s): by a branch", parameter, value,
                          err)  # fmt: skip
+        key = (id(start), parameter, float(value))
+        if key in self._failed_legs:  # the same leg from the same state: the branch is
+            # deterministic, so it fails again (a move tried directly, then by branches)
+            raise self._failed_legs[key][1]
         leg = branch(start.physics, self.disc, parameter, [value], start=start, locate=False,
                      arclength=False, modes=self.modes, **self.options)  # fmt: skip
         if leg.stopped:
-            raise NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
+            err = NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
+            self._failed_legs[key] = (start, err)  # the state kept, so its id is not reused
+            raise err
         return leg.points[-1].steady
 
     def move(
@@ -257,6 +266,7 @@ class _Tracer:
             self.resumed.add(chi)
             return self.known[chi]
         t0 = time.perf_counter()
+        self._failed_legs.clear()
         state = self.stable_start(start, chi, lam_pred * (1.0 - self.side * self.margin),
                                   fallbacks)  # fmt: skip
         special, b = self.crossing(state, lam_pred)
