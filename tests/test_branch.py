@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib
 import json
 
 import numpy as np
@@ -236,3 +237,42 @@ def test_the_tangent_predictor_of_a_lone_start_is_second_order(hopf_branch):
            for r in (mid, p2.steady)]  # fmt: skip
     # measured: errors 2.04e-4 and 7.70e-4 (ratio 3.78) against a step of 7.75e-3
     assert 3.0 < err[1] / err[0] < 5.0
+
+
+def test_a_failed_step_is_not_halved_below_a_quarter_of_xtol(monkeypatch):
+    """A model branch with a fold at lam = 7.6002 (the corrector fails beyond it): natural
+    continuation in steps of 0.004 from 7.59 halves failed steps down to xtol/4 = 2.5e-4, no
+    further, and stops there, the fold between the last state and the first failed value; before
+    the floor it crept on in steps of 1e-5 (v = 0.95, chi = 0.2594, N = 8, 4 min a failure)."""
+    vb = importlib.import_module("vesicle.branch")
+
+    fold, tried = 7.6002, []
+
+    def correct(self, value, requested=True, on_path=True):
+        tried.append(value)
+        if value > fold:
+            raise vs.NewtonError(f"no state at lam = {value}")
+        return self.add(vs.BranchPoint(vs.Physics(lam=value, chi=0.2), None,
+                                       np.array([[0.0, -0.1]]), requested), on_path)  # fmt: skip
+
+    monkeypatch.setattr(vb._Tracer, "correct", correct)
+    tracer = vb._Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4,
+                        min_step=vb.MIN_STEP * 1e-3)  # fmt: skip
+    tracer.add(vs.BranchPoint(vs.Physics(lam=7.59, chi=0.2), None, np.array([[0.0, -0.1]]), True))
+    with pytest.raises(vb._Stop) as stop:
+        for value in (7.594, 7.598, 7.602, 7.606):
+            tracer.step_to(value)
+    last, failed = stop.value.last, stop.value.target
+    assert last <= fold < failed and failed - last >= 2.5e-4 and failed - last < 1e-3
+    assert "below 0.00025" in stop.value.why
+    steps = np.diff(sorted(set(tried)))
+    assert steps.min() >= 2.5e-4 - 1e-12  # never closer than the floor
+    # without the floor: halved 4 times after each success, creeping to 1e-5 of the fold
+    tried.clear()
+    creeper = vb._Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4)
+    creeper.add(vs.BranchPoint(vs.Physics(lam=7.59, chi=0.2), None, np.array([[0.0, -0.1]]),
+                               True))  # fmt: skip
+    with pytest.raises(vb._Stop) as stop:
+        for value in (7.594, 7.598, 7.602, 7.606):
+            creeper.step_to(value)
+    assert fold - stop.value.last < 1e-5 and len(tried) > 2 * len(set(tried) & {7.594, 7.598})

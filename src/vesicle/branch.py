@@ -78,6 +78,10 @@ BRANCH_ITERATIONS = 25
 #: on another branch (a plain solve beyond a fold lands elsewhere, SPEC §16): the step is halved.
 JUMP = 1.0
 
+#: A failed step is not halved below this fraction of the branch's ``xtol``: natural
+#: continuation then stops and the pseudo-arclength takes over (the fold lies within it).
+MIN_STEP = 0.25
+
 #: |omega_R| below which the most unstable mode counts as real (saddle-node, not Hopf).
 REAL_TOLERANCE = 1e-2
 
@@ -269,12 +273,14 @@ class _Tracer:
 
     def __init__(
         self, physics, discretisation, parameter, executor, progress, max_halvings,
-        jacobian="linearised", modes="symmetric",
+        jacobian="linearised", modes="symmetric", min_step=0.0,
     ):  # fmt: skip
         self.physics, self.disc, self.parameter = physics, discretisation, parameter
         self.jacobian, self.modes = jacobian, modes
         self.executor, self.progress = executor, progress
         self.max_halvings = max_halvings
+        # the shortest step a failed one is halved to (absolute in lam, relative in chi, v)
+        self.min_step = min_step
         self.points: list[BranchPoint] = []  # every state computed (starts, location steps)
         self.path: list[BranchPoint] = []  # the branch, in the order continued
 
@@ -365,7 +371,13 @@ class _Tracer:
                 point = self.correct(target, requested=target == value)
             except (NewtonError, ShapeError, SolverError, BranchJump) as err:
                 if halvings >= self.max_halvings:
-                    raise _Stop(target, last, err) from err
+                    raise _Stop(target, last, err, f"after {halvings} halvings") from err
+                floor = self.min_step * (1.0 if self.parameter == "lam" else abs(last))
+                if 0.5 * abs(target - last) < floor:  # the fold is within the tolerance:
+                    # creeping on would cost a failed corrector per step (v = 0.95,
+                    # chi = 0.2594, N = 8: steps of 1e-5 in lam, 4 min each)
+                    raise _Stop(target, last, err, f"a shorter step would be below "
+                                                   f"{floor:.2g}") from err  # fmt: skip
                 halvings += 1
                 target = last + 0.5 * (target - last)
                 log.info("step failed (%s); trying %s = %.6g", err, self.parameter, target)
@@ -387,9 +399,9 @@ class BranchJump(RuntimeError):
 
 
 class _Stop(Exception):
-    def __init__(self, target: float, last: float, cause: Exception):
+    def __init__(self, target: float, last: float, cause: Exception, why: str = ""):
         super().__init__(str(cause))
-        self.target, self.last, self.cause = target, last, cause
+        self.target, self.last, self.cause, self.why = target, last, cause, why
 
 
 def branch(
@@ -456,7 +468,7 @@ def branch(
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
     tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian,
-                     modes)  # fmt: skip
+                     modes, MIN_STEP * xtol)  # fmt: skip
     stopped, stopped_between = None, None
     if start is None:  # the first value by Newton, or by continuation from an easier point
         start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress,
@@ -474,7 +486,7 @@ def branch(
         stopped_between = (float(stop.last), float(stop.target))
         stopped = (
             f"no steady state found beyond {parameter} = {stop.last:.6g} (towards "
-            f"{stop.target:.6g}, after {max_halvings} halvings): {stop.cause}"
+            f"{stop.target:.6g}, {stop.why}): {stop.cause}"
         )
         log.warning("branch stopped: %s", stopped)
     specials = _special_points(tracer, locate, xtol)
