@@ -35,44 +35,61 @@ from vesicle.dynamics import RunParameters
 from vesicle.io import read_run
 from vesicle.simulation import load_parameters, simulate
 out = Path(sys.argv[1])
+def step(info):
+    print("step", flush=True)  # the parent counts these to kill at a chosen step
 if out.exists():
     data = read_run(out)
-    simulate(load_parameters(data), out=out, resume=data)
+    simulate(load_parameters(data), out=out, resume=data, progress=step)
 else:
-    simulate(RunParameters(**{params!r}), out=out)
-print("done")
+    simulate(RunParameters(**{params!r}), out=out, progress=step)
+print("done", flush=True)
 """
 
 
-def _reference():
-    return simulate(RunParameters(**PARAMS))
+def _reference(params=PARAMS):
+    return simulate(RunParameters(**params))
 
 
-def _killed_and_resumed(out: Path, kills: int, seed: int) -> int:
-    """Run the child, SIGKILL it at random moments ``kills`` times, then let it finish.
-    Returns how many kills interrupted a running child."""
+def _killed_and_resumed(out: Path, kills: int, seed: int, params=PARAMS) -> int:
+    """Run the child, SIGKILL it ``kills`` times at random moments, then let it finish.
+
+    The moments are drawn in steps, not wall seconds, so that the test does not depend on the
+    machine's speed: each child is killed after 1 or 2 accepted steps of its own plus a random
+    fraction of a step's time (so the kill lands anywhere: in a solve, in the checkpoint write
+    that follows the step, between steps). Returns how many kills interrupted a running child."""
     rng = np.random.default_rng(seed)
-    code = CHILD.format(params=PARAMS)
+    code = CHILD.format(params=params)
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     interrupted = 0
-    attempts = 10 * kills + 10
-    for _ in range(attempts):
+    for _ in range(kills + 1):
         child = subprocess.Popen(
             [sys.executable, "-c", code, str(out)], env=env, stdout=subprocess.PIPE
         )
         if interrupted < kills:
-            time.sleep(rng.uniform(1.0, 4.0))  # import (~1.5 s), then stepping
-            if child.poll() is None:
-                child.send_signal(signal.SIGKILL)
-                child.wait()
-                interrupted += 1
-                continue
+            steps, started = int(rng.integers(1, 3)), None
+            while steps > 0:
+                line = child.stdout.readline()
+                if line != b"step\n":
+                    break  # finished (or failed): checked below
+                steps -= 1
+                started = started or time.perf_counter()
+            if steps == 0:
+                per_step = time.perf_counter() - started + 0.01
+                time.sleep(rng.uniform(0.0, per_step))
+                if child.poll() is None:
+                    child.send_signal(signal.SIGKILL)
+                    child.wait()
+                    child.stdout.close()
+                    interrupted += 1
+                    continue
         stdout, _ = child.communicate(timeout=300)
         assert child.returncode == 0 and b"done" in stdout
         ck = read_run(out).checkpoint
-        if ck["t"] >= PARAMS["t_end"] - 1e-12 and interrupted >= kills:
-            return interrupted
-    raise AssertionError(f"did not finish after {attempts} attempts")
+        assert ck["t"] >= params["t_end"] - 1e-12
+        # a run that ends before every kill was made has too few steps for this test
+        assert interrupted >= kills, f"the run finished after {interrupted} of {kills} kills"
+        return interrupted
+    raise AssertionError("unreachable: the last child is never killed")
 
 
 def _assert_identical(run, ref):
@@ -93,8 +110,9 @@ def test_sigkill_at_random_moments_then_resume_is_bit_identical(tmp_path):
 @pytest.mark.slow
 def test_twenty_sigkills_then_resume_is_bit_identical(tmp_path):
     out = tmp_path / "killed.h5"
-    assert _killed_and_resumed(out, kills=20, seed=2) >= 20
-    _assert_identical(read_run(out), _reference())
+    params = {**PARAMS, "t_end": 0.9}  # about 180 steps: 20 kills take at most 60
+    assert _killed_and_resumed(out, kills=20, seed=2, params=params) >= 20
+    _assert_identical(read_run(out), _reference(params))
 
 
 @pytest.fixture
