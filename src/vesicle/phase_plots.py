@@ -127,8 +127,11 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
     ax.set_xlabel(r"$\chi$ (shear rate)")
     ax.set_ylabel(r"$\lambda_c$")
     ax.grid(alpha=0.3, which="both")
-    ax.scatter([], [], color="0.3", s=28, label="Hopf (TR above)")
-    ax.scatter([], [], facecolor="white", edgecolor="0.3", s=28, label="saddle-node (TU above)")
+    ax.scatter([], [], color="0.3", s=28, label="Hopf: a complex pair crosses")
+    ax.scatter([], [], facecolor="white", edgecolor="0.3", s=28,
+               label="saddle-node: a real eigenvalue crosses")  # fmt: skip
+    if any(c.get("type_change") for c in curves):
+        ax.scatter([], [], marker="*", s=120, color="0.3", edgecolor="k", label="change of type")
     ax.plot([], [], color="0.3", ls=":", lw=1.0, label="leading-order theory")
     if any(p.get("located") is False for c in curves for p in c["points"]):
         ax.scatter([], [], marker="x", color="k", s=30, label="estimate (not located)")
