@@ -276,3 +276,56 @@ def test_a_failed_step_is_not_halved_below_a_quarter_of_xtol(monkeypatch):
         for value in (7.594, 7.598, 7.602, 7.606):
             creeper.step_to(value)
     assert fold - stop.value.last < 1e-5 and len(tried) > 2 * len(set(tried) & {7.594, 7.598})
+
+
+def _model_fold_tracer(monkeypatch, omega_R: float):
+    """A model branch with a fold at lam = 7.6002 (the corrector fails beyond it) whose leading
+    eigenvalue is ``omega_R + i omega_I`` with omega_I = -sqrt(fold - lam) (the saddle-node law,
+    SPEC §16) or, with omega_R != 0, a complex pair."""
+    vb = importlib.import_module("vesicle.branch")
+    fold, tried = 7.6002, []
+
+    def point(value):
+        growth = -np.sqrt(max(fold - value, 0.0))
+        return vs.BranchPoint(vs.Physics(lam=value, chi=0.2), None,
+                              np.array([[omega_R, growth]]), True)  # fmt: skip
+
+    def correct(self, value, requested=True, on_path=True):
+        tried.append(value)
+        if value > fold:
+            raise vs.NewtonError(f"no state at lam = {value}")
+        return self.add(point(value), on_path)
+
+    monkeypatch.setattr(vb._Tracer, "correct", correct)
+    tracer = vb._Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4,
+                        min_step=vb.MIN_STEP * 1e-3)  # fmt: skip
+    tracer.add(point(7.55))
+    return vb, tracer, tried, fold
+
+
+def test_failed_steps_next_to_a_fold_hand_over_to_the_arclength_early(monkeypatch):
+    """After EARLY_FAILURES failed correctors next to a fold (real leading eigenvalue, growth
+    nearing zero) natural continuation stops for the arclength; the same model without the early
+    stop needs many more failed correctors (each one 4-5 s at N = 4 and minutes at N = 8)."""
+    vb, tracer, tried, fold = _model_fold_tracer(monkeypatch, 0.0)
+    with pytest.raises(vb._Stop) as stop:
+        for value in (7.57, 7.59, 7.61, 7.63):
+            tracer.step_to(value, early=True)
+    assert stop.value.early and stop.value.last <= fold < stop.value.target
+    early_failures = sum(x > fold for x in tried)
+    assert early_failures == vb.EARLY_FAILURES
+    vb, tracer, tried, fold = _model_fold_tracer(monkeypatch, 0.0)
+    with pytest.raises(vb._Stop) as stop:
+        for value in (7.57, 7.59, 7.61, 7.63):
+            tracer.step_to(value)
+    assert not stop.value.early and sum(x > fold for x in tried) >= 2 * early_failures
+
+
+def test_a_complex_leading_pair_does_not_stop_early(monkeypatch):
+    """With a complex leading pair (|omega_R| > REAL_TOLERANCE) failed steps are not a
+    saddle-node fold ahead: halving goes on as before."""
+    vb, tracer, tried, fold = _model_fold_tracer(monkeypatch, 0.05)
+    with pytest.raises(vb._Stop) as stop:
+        for value in (7.57, 7.59, 7.61, 7.63):
+            tracer.step_to(value, early=True)
+    assert not stop.value.early and sum(x > fold for x in tried) > vb.EARLY_FAILURES
