@@ -797,31 +797,24 @@ def _follow_fold(
     log.info("natural continuation stopped: pseudo-arclength from %s = %.6g", name, z1[-1])
     ahead = np.sign(z1[-1] - z0[-1])
     taken = []  # added to the tracer once the fold is found (or, without limit, at the end)
-    step = ds
+    step, turned = ds, False
     try:
         for _ in range(16 if limit is None else PROBE_STEPS):
             nxt = arclength_step(A.residual, A.jacobian, point, step, 1e-8, ds / 64)
             taken.append(nxt.data)
-            if np.sign(nxt.tangent[-1]) != np.sign(point.tangent[-1]):
-                break
-            if limit is not None and ahead * (nxt.z[-1] - limit) > 0:
-                return None  # past the value the natural step failed at: no fold before it
+            turned = np.sign(nxt.tangent[-1]) != np.sign(point.tangent[-1])
+            if turned or (limit is not None and ahead * (nxt.z[-1] - limit) > 0):
+                break  # the fold, or past the value the natural step failed at without one
             point = nxt
             if limit is not None:  # a probe: longer steps towards the limit
                 step = PROBE_GROWTH * abs(nxt.ds)
-        else:
-            if limit is None:
-                for data in taken:
-                    tracer.add(data)
-            return None
     except (RuntimeError, NewtonError, ShapeError, SolverError) as err:
         log.warning("pseudo-arclength stopped: %s", err)
-        if limit is None:
-            for data in taken:
-                tracer.add(data)
+    if turned or limit is None:
+        for data in taken:
+            tracer.add(data)
+    if not turned:
         return None
-    for data in taken:
-        tracer.add(data)
     fold = _locate_fold(A, point, nxt, xtol)
     beyond = nxt
     for _ in range(past_fold):  # the unstable side, if asked
