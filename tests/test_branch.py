@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 import vesicle as vs
-from vesicle.branch import branch, parse_values
+from vesicle.branch import branch
 from vesicle.cli import main
 
 
@@ -46,21 +46,6 @@ def test_branch_json_has_the_issue_keys(hopf_branch):
             "n_unstable"}  # fmt: skip
     assert all(keys <= set(p) for p in out["points"]) and len(out["points"]) == 4
     assert out["special_points"][0]["type"] == "hopf"
-
-
-@pytest.mark.parametrize(
-    "text, step, expected",
-    [("1:3", None, [1.0, 2.0, 3.0]), ("1:2", 0.4, [1.0, 1.4, 1.8, 2.0]),
-     ("0.2,1,6", None, [0.2, 1.0, 6.0]), ("1:2:0.5", None, [1.0, 1.5, 2.0])],
-)  # fmt: skip
-def test_parse_values(text, step, expected):
-    np.testing.assert_allclose(parse_values(text, step), expected)
-
-
-@pytest.mark.parametrize("text", ["3:1", "1:x", "", "1:2:0", "nan,1"])
-def test_parse_values_refuses_bad_ranges(text):
-    with pytest.raises(ValueError):
-        parse_values(text)
 
 
 def test_branch_refuses_bad_input_before_any_work():

@@ -84,7 +84,7 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
         ),
         (
             '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\nchi = "0.1:x"\n',
-            "chi must be a range",
+            "[task] chi: 'x' is not a number",
         ),
         (
             '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'

@@ -1,12 +1,6 @@
 """vesicle: spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow."""
 
-from importlib.metadata import PackageNotFoundError, version
-
-try:  # first: vesicle.io records it in every file it writes
-    __version__ = version("vesicle")
-except PackageNotFoundError:  # running from a source tree without installation
-    __version__ = "0+unknown"
-
+from ._version import __version__
 from .branch import Branch, BranchPoint, SpecialPoint, branch
 from .caches import cache_info, clear_caches
 from .critical import CriticalResult, critical_lambda

@@ -19,6 +19,7 @@ then false: pseudo-arclength continuation past folds is the next step of issue 1
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import logging
 import time
@@ -33,6 +34,7 @@ from .analysis import diagnose
 from .continuation import ArclengthPoint, arclength_step, tangent
 from .parameters import Discretisation, Physics
 from .problem import SteadyProblem
+from .ranges import parse_range
 from .solver import SolverError
 from .stability import StabilityResult, stability
 from .steady import (
@@ -51,7 +53,6 @@ __all__ = [
     "SpecialPoint",
     "approach_exponent",
     "branch",
-    "parse_values",
     "reach",
 ]
 
@@ -192,37 +193,6 @@ class Branch:
             "stopped_between": list(self.stopped_between) if self.stopped_between else None,
             "seconds": self.seconds,
         }
-
-
-def parse_values(text: str, step: float | None = None) -> list[float]:
-    """``"1:9"`` (with ``step``, default 1), ``"1:9:0.5"`` or ``"1,2,4,8"`` as a list."""
-    text = str(text).strip()
-    try:
-        if ":" in text:
-            parts = [float(x) for x in text.split(":")]
-            if len(parts) == 3:
-                start, stop, step = parts
-            elif len(parts) == 2:
-                start, stop = parts
-                step = 1.0 if step is None else float(step)
-            else:
-                raise ValueError
-            if not step > 0 or not np.isfinite(start + stop + step) or stop <= start:
-                raise ValueError
-            n = int(np.floor((stop - start) / step + 1e-9))
-            values = [start + k * step for k in range(n + 1)]
-            if abs(values[-1] - stop) > 1e-9 * max(1.0, abs(stop)):
-                values.append(stop)
-            return values
-        values = [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise ValueError(
-            f"cannot read the values {text!r}: use START:STOP (with a step), START:STOP:STEP "
-            "or a comma list"
-        ) from None
-    if not values or not all(np.isfinite(values)):
-        raise ValueError(f"no finite values in {text!r}")
-    return values
 
 
 def approach_exponent(values, growth, critical: float | None = None) -> dict:
@@ -485,7 +455,7 @@ def branch(
     if parameter not in PARAMETERS:
         raise ValueError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
     if isinstance(values, str):
-        values = parse_values(values, step)
+        values = parse_range(values, "step", step=step, name=parameter)
     if values is None or len(values) == 0:
         raise ValueError("give the values of the branch parameter")
     values = [float(x) for x in values]
@@ -493,6 +463,9 @@ def branch(
         physics.replace(**{parameter: x})
     if not (np.isfinite(xtol) and xtol > 0):
         raise ValueError(f"xtol must be positive, got {xtol}")
+    if isinstance(past_fold, bool) or int(past_fold) != past_fold or past_fold < 0:
+        raise ValueError(f"past_fold (arclength steps beyond a fold) must be an integer of at "
+                         f"least 0, got {past_fold}")  # fmt: skip
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
     tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian,
@@ -626,7 +599,10 @@ def reach(
     critical-lambda search, which must not start on another branch).  An easier start is used
     only if it is stable, except the last, ``lam = 1, chi = 1``.
     Every detour is logged and reported to ``progress`` (``{"continuation": text}``); if the
-    target cannot be reached the ``NewtonError`` says how far it got.
+    target cannot be reached the ``NewtonError`` says how far it got.  The result's ``start``
+    says how it was reached (``"direct"``, ``"continued from ..."``); a state from the default
+    start that looks like another branch's is returned only when no easier start works, and
+    then flagged: ``start = "suspect: ..."`` (``result.suspect``), in the JSON and in files.
     """
     disc = discretisation if discretisation is not None else Discretisation()
     direct = None
@@ -654,13 +630,18 @@ def reach(
         # crosses there) but one Newton wandered to (lam = 4, chi = 10, N = 4: psi = -0.338
         # with 7 unstable modes, the leading one (15.9, 9.6))
         suspect = w_r <= REAL_TOLERANCE or verify_unstable or unstable > 2
-        if not (w_i > 0 and suspect and easier):
+        if not (w_i > 0 and suspect):
             return direct
         # a real unstable mode: possibly the saddle half of a fold (SPEC §16); the state
         # continued from chi = 1 is the one on the branch that is stable below the fold
         kind = "a real unstable mode" if w_r <= REAL_TOLERANCE else f"{unstable} unstable modes"
         first = NewtonError(f"Newton from the default start found a state with {kind} "
                             f"(omega_I = {w_i:.3g})")  # fmt: skip
+        flagged = dataclasses.replace(
+            direct, start=f"suspect: Newton from the default start found a state with {kind} "
+            f"(omega_I = {w_i:.3g}) and no easier start reached a stable state to continue from")
+        if not easier:
+            return flagged
 
     def say(text: str) -> None:
         log.warning("%s", text)
@@ -680,15 +661,16 @@ def reach(
         start = None
     if start is None:
         if direct is not None:
-            return direct
+            say(f"{first}; no easier start worked: the state is flagged as suspect")
+            return flagged
         tried = ", ".join(f"(v = {e.v:g}, lam = {e.lam:g}, chi = {e.chi:g})" for e in easier)
         raise NewtonError(
             f"no steady TT state at lam = {physics.lam:g}, chi = {physics.chi:g}: Newton from the "
             f"default start failed ({first}), and so did the easier starts {tried}"
         )
     moved = f"v = {start.physics.v:g}, " if start.physics.v != physics.v else ""
-    say(f"{first} at lam = {physics.lam:g}, chi = {physics.chi:g}; continuing from "
-        f"{moved}lam = {start.lam:g}, chi = {start.chi:g}")  # fmt: skip
+    origin = f"continued from {moved}lam = {start.lam:g}, chi = {start.chi:g}"
+    say(f"{first} at lam = {physics.lam:g}, chi = {physics.chi:g}; {origin}")
     for name in ("v", "lam", "chi"):
         here, there = getattr(start.physics, name), getattr(physics, name)
         if here == there:
@@ -700,12 +682,12 @@ def reach(
         if leg.stopped:
             if direct is not None:
                 say(f"continuation towards {name} = {there:g} stopped; keeping the state Newton "
-                    "found from the default start")  # fmt: skip
-                return direct
+                    "found from the default start, flagged as suspect")  # fmt: skip
+                return flagged
             raise NewtonError(f"continuation towards {name} = {there:g} stopped: {leg.stopped}")
         start = leg.points[-1].steady
         say(f"continued in {name} to {there:g}")
-    return start
+    return dataclasses.replace(start, start=origin)
 
 
 def _blocks(steady: SteadyResult) -> np.ndarray:

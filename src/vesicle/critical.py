@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from . import __version__
+from ._version import __version__
 from .branch import branch, reach
 from .parameters import Discretisation, Physics
 from .solver import SolverError
@@ -171,6 +171,8 @@ def critical_lambda(
     out-of-plane branch, which loses stability to perturbations that break the x-z symmetry);
     ``orientation`` the TT branch of the first evaluation (later ones continue from it).
     """
+    if not (np.isfinite(xtol) and xtol > 0):
+        raise ValueError(f"xtol must be a positive number, got {xtol}")
     physics, discretisation = _critical_objects(physics, discretisation, degree, grid, v, chi)
     options = {"factor": factor, "executor": executor, "progress": progress,
                "max_iterations": max_iterations, "jacobian": jacobian, "modes": modes,
@@ -237,7 +239,14 @@ def _first_state(physics, disc, start, newton, orientation) -> SteadyResult:
             log.warning("the state continued from the coarse one turned by %.3g rad (psi %.4g "
                         "against %.4g): another branch; default start", turned, steady.psi,
                         start.psi)  # fmt: skip
-    return reach(physics, disc, verify_unstable=True, orientation=orientation, **newton)
+    state = reach(physics, disc, verify_unstable=True, orientation=orientation, **newton)
+    if state.suspect:  # the search would start on another branch: refuse, say why
+        raise NewtonError(
+            f"no trustworthy first state at lam = {physics.lam:g}, chi = {physics.chi:g} for the "
+            f"critical-lambda search ({state.start}); give --lam0 closer to a stable tank-"
+            "treading state"
+        )
+    return state
 
 
 def _search(

@@ -212,8 +212,18 @@ class RunParameters:
         for name in ("perturb", "steady_tol", "drift_tol", "recenter_threshold"):
             if getattr(self, name) < 0.0:
                 raise ValueError(f"{name} must not be negative, got {getattr(self, name)}")
-        if self.periods < 0:
-            raise ValueError(f"periods must not be negative, got {self.periods}")
+        if not 0.0 < self.rtol < 1.0:  # an error per step as large as the vesicle is no control
+            raise ValueError(f"rtol must lie in (0, 1) (local error per step relative to the "
+                             f"mean radius), got {self.rtol}")  # fmt: skip
+        if self.periods < 0 or self.periods == 1:
+            raise ValueError(f"periods must be 0 (never stop on periods) or at least 2 (the "
+                             f"last ones are compared), got {self.periods}")  # fmt: skip
+        if self.perturb >= 1.0:  # the largest radius change as large as the mean radius: the
+            # radius goes through zero somewhere, which no radial shape can hold (SPEC §2)
+            raise ValueError(f"perturb is the largest radius change relative to the mean radius "
+                             f"and must be below 1, got {self.perturb}")  # fmt: skip
+        if self.seed < 0:
+            raise ValueError(f"seed must not be negative, got {self.seed}")
         if self.checkpoint_every <= 0.0:
             raise ValueError(f"checkpoint_every must be positive, got {self.checkpoint_every}")
         if self.dt_min > self.dt_max:

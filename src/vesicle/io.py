@@ -44,7 +44,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .sphere.grid import SphereGrid
 from .surface import Shape
 
@@ -243,6 +243,26 @@ _COORDINATE_MEANING = {
 }
 
 
+def flat_parameters(run: RunData) -> dict:
+    """The run's physics and discretisation as flat attributes (``lam``, ``grid``, ``flow``:
+    the flow's name, ...) with the package version, beside the JSON of the parameter objects:
+    what an xarray or netCDF user looks for (``ds.attrs["lam"]``)."""
+    flat = {}
+    for group in ("physics", "discretisation"):
+        table = run.parameters.get(group)
+        if not isinstance(table, dict):
+            continue
+        for key, value in table.items():
+            if key == "flow" and isinstance(value, dict):
+                value = value.get("name")
+            if isinstance(value, bool | int | float | str) and not isinstance(value, bool):
+                flat[key] = value
+    version = run.attributes.get("vesicle_version")
+    if version is not None:
+        flat["vesicle_version"] = str(version)
+    return flat
+
+
 def _label_series(group: h5py.Group, run: RunData) -> None:
     """netCDF dimensions for the series and fields (``t``, the trailing ``i``, ``j``, ``l`` and
     the grid's ``theta``, ``phi``) and each one's ``long_name`` and ``units``: the group opens
@@ -250,6 +270,9 @@ def _label_series(group: h5py.Group, run: RunData) -> None:
     if "t" not in group:
         return
     group["t"].make_scale("t")
+    flat = {"vesicle_version": __version__, **flat_parameters(run)}  # written by this version
+    for key, value in flat.items():  # xarray.open_dataset(group="series") shows them
+        group.attrs[key] = value
     degree = run.parameter("degree")
     coordinates = {
         "i": np.arange(3), "j": np.arange(3),
@@ -452,7 +475,12 @@ def open_run(path: str | os.PathLike):
     attrs = {k: json.dumps(_plain(v)) if isinstance(v, dict | list) else v
              for k, v in run.parameters.items()}  # fmt: skip
     attrs.update({f"file_{k}": str(v) for k, v in run.attributes.items()})
+    attrs.update({k: v for k, v in flat_parameters(run).items() if k not in attrs})
     coords = {"t": ("t", t, {"long_name": SERIES["t"][1], "units": SERIES["t"][2]})}
+    n = run.coefficients.shape[-1]
+    coords["l"] = ("l", np.arange(n), {"long_name": "spherical-harmonic degree l"})
+    coords["m"] = ("m", np.arange(n), {"long_name": "spherical-harmonic order m >= 0 "
+                                       "(r_l,-m = conj(r_lm))"})  # fmt: skip
     if run.fields:
         for name, values in grid_coordinates(run.grid).items():
             long_name, units = _COORDINATE_MEANING[name]

@@ -30,7 +30,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from . import __version__
+from ._version import __version__
 from .branch import REAL_TOLERANCE, BranchPoint, SpecialPoint, branch, reach
 from .critical import critical_lambda, vorticity_start_lambda
 from .parameters import Discretisation, Physics
@@ -444,6 +444,9 @@ def neutral_curve(
         ``progress``: where a long trace keeps its states (:func:`vesicle.neutral_io.
         write_point_state`).
     """
+    for name, value in (("xtol", xtol), ("type_tol", type_tol)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a positive number, got {value}")
     if modes is None:
         modes = "general" if orientation == "vorticity" else "symmetric"
     if not isinstance(physics, Physics):

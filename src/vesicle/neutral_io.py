@@ -19,7 +19,7 @@ import logging
 import os
 from pathlib import Path
 
-from . import __version__
+from ._version import __version__
 from .io import write_text_atomically
 from .neutral import NeutralPoint
 from .parameters import Discretisation, Physics

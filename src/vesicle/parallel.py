@@ -24,7 +24,7 @@ from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 
-__all__ = ["executor", "local_cluster"]
+__all__ = ["close_cluster", "executor", "local_cluster"]
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +40,20 @@ def local_cluster(workers: int):
     env = {"VESICLE_THREADS": os.environ.get("VESICLE_THREADS", "1")}
     return LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
                         dashboard_address=None, env=env)  # fmt: skip
+
+
+def close_cluster(cluster) -> None:
+    """Close a cluster of :func:`local_cluster` without the nannies' warnings: at the end of a
+    command its workers may still be finishing a cancelled task (Python cannot interrupt a
+    running function), and a nanny then warns "Worker process still alive ..., killing" before
+    it does what closing asks.  That is the intended end, not news for the user."""
+    nanny = logging.getLogger("distributed.nanny")
+    level = nanny.level
+    nanny.setLevel(logging.ERROR)
+    try:
+        cluster.close()
+    finally:
+        nanny.setLevel(level)
 
 
 @contextmanager
@@ -64,7 +78,7 @@ def executor(workers: int = 1, scheduler: str | None = None) -> Iterator[Executo
             with Client(cluster) as client:
                 yield client.get_executor()
         finally:
-            cluster.close()
+            close_cluster(cluster)
         return
     with Client(scheduler) as client:
         log.info("connected to the Dask scheduler at %s", scheduler)

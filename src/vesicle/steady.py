@@ -16,6 +16,7 @@ is itself symmetric under ``y -> -y`` (simple shear, planar extension in the x-z
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import time
 from concurrent.futures import Executor
@@ -102,6 +103,16 @@ class SteadyResult:
     seconds: float
     solves: int
     jacobians: int = 0  # Newton Jacobians formed by differences (the stability one not counted)
+    #: How the state was reached (its provenance, in the JSON and files): "direct" (Newton from
+    #: the default start), "initial" (Newton from a given state or shape), "continued from ..."
+    #: (:func:`vesicle.branch.reach`'s detour) or "suspect: ..." (a state Newton found from the
+    #: default start that looks like another branch's, kept because no easier start worked)
+    start: str = "direct"
+
+    @property
+    def suspect(self) -> bool:
+        """Whether the state is one its start strategy flagged as possibly another branch's."""
+        return self.start.startswith("suspect")
 
     @property
     def physics(self) -> Physics:
@@ -322,6 +333,7 @@ def steady_tank_treading(
         orientation = initial.orientation if isinstance(initial, SteadyResult) else "flow"
     if orientation not in ORIENTATIONS:
         raise ValueError(f"orientation must be one of {ORIENTATIONS}, got {orientation!r}")
+    initial_is_default = initial is None
     if initial is None and orientation != "flow":
         initial = initial_guess(physics, discretisation, orientation=orientation)
     _check_problem(physics)
@@ -345,12 +357,13 @@ def steady_tank_treading(
         newton.a = guess.copy()
     converged = newton.iterate(tolerance, int(max_iterations))
     result = newton.result(converged)
+    if not initial_is_default:
+        result = dataclasses.replace(result, start="initial")
     if not converged:
         how = "diverged after" if newton.diverged else "did not converge in"
         raise NewtonError(
             f"Newton {how} {len(newton.history) - 1} iterations at lam = {physics.lam:g}, "
-            f"chi = {physics.chi:g} ({newton.halved} of them halved steps that left the radial "
-            f"representation): residual history "
+            f"chi = {physics.chi:g} ({_halvings(newton.halved)}): residual history "
             f"{', '.join(f'{r:.1e}' for r in newton.history)}; start closer (continuation in "
             "small steps), from a short time-dependent run, or allow more iterations",
             result,
@@ -592,6 +605,15 @@ class _Newton:
             solves=self.solves,
             jacobians=self.jacobians,
         )
+
+
+def _halvings(k: int) -> str:
+    """The log's words for ``k`` Newton steps halved (each halving is one more pass, not one more
+    iteration: the history counts only the steps evaluated)."""
+    if k == 0:
+        return "no step halved"
+    return f"besides {k} step halving{'s' if k > 1 else ''} where a step left the radial " \
+           "representation"
 
 
 def _newton_step(M: np.ndarray, g: np.ndarray, G: np.ndarray) -> np.ndarray:

@@ -36,7 +36,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .io import open_file, stamp, write_atomically
 from .parameters import Discretisation, Physics
 from .problem import SteadyProblem
@@ -126,6 +126,7 @@ class SteadyFile:
                    "flow": stress(self.arrays["S_flow"])},
             seconds=float(s["seconds"]),
             solves=int(s["solves"]),
+            start=str(s.get("start", UNKNOWN_START)),
         )
 
 
@@ -150,6 +151,7 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
         "multipliers": list(result.multipliers),
         "solves": result.solves,
         "seconds": result.seconds,
+        "start": result.start,
     }  # fmt: skip
     if stability is not None:
         w_r, w_i = stability.most_unstable
@@ -158,6 +160,10 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
                     "eigenvalues": stability.omega.tolist(),
                     "curvature_shift": float(stability.curvature_shift)})  # fmt: skip
     return out
+
+
+#: The provenance of a state read from a file written before it was recorded.
+UNKNOWN_START = "unknown (a file written before the start was recorded)"
 
 
 def _resolution(disc: Discretisation) -> tuple:
@@ -208,6 +214,7 @@ def _contents(result: SteadyResult, stability: StabilityResult | None):
         "psi": float(result.psi), "D": float(result.D), "S_xz": float(result.stress.S_xz),
         "N1": float(result.stress.N1), "N2": float(result.stress.N2),
         "solves": int(result.solves), "seconds": float(result.seconds),
+        "start": str(result.start),
     }  # fmt: skip
     return parameters, arrays, scalars
 

@@ -17,7 +17,8 @@ keys for ``--quick`` (reduced resolution)::
     y = ["psi", "D"]         # point keys; "bending.S_xz" / "flow.S_xz" for the split
     curves = "lam"           # the grid key that names each curve
     theory = "misbah_psi"    # optional: a leading-order curve beside each (THEORIES)
-    cost = "..."             # measured cost, shown by --list
+    cost = "..."             # measured cost, shown by --list (a shipped study's comes from
+                             #   vesicle.costs.STUDY_COSTS)
     overlay = "NAME"         # optional: a study of runs in the same folder drawn on this one
     fit = "period"           # optional (runs): T = c (lam - lam_c)^(-p) fitted per curve
 
@@ -32,6 +33,7 @@ from __future__ import annotations
 import csv
 import json
 import logging
+import tempfile
 import tomllib
 from collections.abc import Callable
 from importlib import resources
@@ -39,6 +41,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .config import ConfigError
+from .costs import study_cost
 from .sweep import SweepConfig, SweepStore, read_sweep_config, run_sweeps
 from .theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
 
@@ -94,7 +98,7 @@ def load_study(
                          f"{', '.join(sorted(shipped))} (or give a TOML path)")  # fmt: skip
     try:
         data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as err:
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:  # a binary file: not a study
         raise ValueError(f"{path} is not valid TOML: {err}") from None
     study = data.pop("study", None)
     if not isinstance(study, dict):
@@ -118,6 +122,8 @@ def load_study(
     if resolution:
         data.setdefault("discretisation", {}).update(resolution)
     study = {"name": path.stem, "source": str(path), "quick": bool(quick), **study}
+    if path == shipped.get(path.stem) and study_cost(path.stem) is not None:
+        study["cost"] = study_cost(path.stem)  # the one table of measured costs
     return study, data
 
 
@@ -164,6 +170,18 @@ def run_study(
                        priority, resolution=resolution)[0]  # fmt: skip
 
 
+def _check_configs(loaded: list[tuple[dict, dict]], folder: Path) -> None:
+    """Read every study's sweep config in a scratch folder, so that a bad resolution or point
+    (``vesicle study NAME --degree 1``) is refused before anything is written into ``folder``;
+    errors name the config as it will be written there."""
+    with tempfile.TemporaryDirectory(prefix="vesicle-study-") as scratch:
+        for study, tables in loaded:
+            try:
+                read_sweep_config(_write_config(study, tables, Path(scratch)))
+            except ConfigError as err:
+                raise ConfigError(str(err).replace(str(Path(scratch)), str(folder))) from None
+
+
 def run_studies(
     names: list[str | Path],
     outdir: str | Path,
@@ -181,8 +199,9 @@ def run_studies(
     one that names it).  ``compute=False``: draw what the stores hold; ``extra``: other sweep
     configs computed alongside (not drawn; ``SweepStore.open`` reads their stores)."""
     folder = Path(outdir)
-    folder.mkdir(parents=True, exist_ok=True)
     loaded = [load_study(name, quick, resolution) for name in names]
+    _check_configs(loaded, folder)
+    folder.mkdir(parents=True, exist_ok=True)
     configs = [read_sweep_config(_write_config(study, tables, folder))
                for study, tables in loaded]  # fmt: skip
     extra = list(extra or [])
@@ -244,9 +263,103 @@ def study_rows(store: SweepStore, study: dict) -> list[dict]:
     return sorted(rows, key=lambda r: (r["curve"], r[study["x"]]))
 
 
+#: The units of the figures (SPEC §1, §11): time in ``mu_out a^3 / kappa``; the specific
+#: stresses ``S = sigma^p / (c chi)`` (``c`` the volume fraction), that is the particle stress in
+#: units of ``c mu_out gamma_dot``; ``chi T`` is a period in units of ``1 / gamma_dot``.
+STRESS_UNIT = r"[$c\,\mu\dot\gamma$]"
+TIME_UNIT = r"[$\mu a^3/\kappa$]"
+_SYMBOLS = {"S_xz": "S_{xz}", "N1": "N_1", "N2": "N_2"}
+_PARTS = {"bending": ("B", "bending part"), "flow": ("V", "flow-resistance part"),
+          "ellipsoid": ("V", "equivalent ellipsoid")}  # fmt: skip
+_LABELS = {"psi": r"inclination $\psi$ [rad]", "D": "deformation D",
+           "period": rf"period $T$ {TIME_UNIT}",
+           "chiT": r"$\chi T$ (period [$1/\dot\gamma$])", "t": rf"$t$ {TIME_UNIT}",
+           "lam": r"$\lambda$", "chi": r"$\chi$", "Delta": r"excess area $\Delta$",
+           "v": "v"}  # fmt: skip
+
+
+def is_stress(key: str) -> bool:
+    """Whether the point key ``key`` is a stress (``S_xz``, ``mean.N1``, ``flow.S_xz``, ...)."""
+    return key.rsplit(".", 1)[-1] in _SYMBOLS
+
+
+def axis_label(key: str, unit: bool = True) -> str:
+    """A readable label of the point key ``key`` (with its unit when ``unit``): ``mean.S_xz``
+    is the period average, ``bending.S_xz`` / ``flow.S_xz`` the parts of the split,
+    ``ellipsoid.S_xz`` the equivalent ellipsoid's."""
+    prefix, _, name = key.rpartition(".")
+    if name not in _SYMBOLS:
+        return _LABELS.get(key, key)
+    symbol = _SYMBOLS[name]
+    if prefix == "mean":
+        text = rf"$\langle {symbol} \rangle$ (period average)"
+    elif prefix in _PARTS:
+        sup, what = _PARTS[prefix]
+        base, _, sub = symbol.partition("_")
+        text = rf"${base}^{{{sup}}}_{sub}$ ({what})"
+    elif prefix:
+        text = rf"${symbol}$ ({prefix})"
+    else:
+        text = rf"${symbol}$"
+    return f"{text} {STRESS_UNIT}" if unit else text
+
+
+#: The leading-order theories' legend entries: what they are and why they depart from the data
+#: (docs/rheology.md: psi and N1 approach them as v -> 1; S_xz - 5/2 and N2 do not).
+THEORY_LABELS = {
+    "misbah_psi": "leading-order small-deformation theory, Misbah (3.6) (dotted): the limit "
+                  "v → 1, departs at finite excess area",
+    "danker_misbah_tt": "leading-order small-deformation rheology, Danker & Misbah (dotted): "
+                        "valid as v → 1 (its N1; its S_xz − 5/2 and N2 need higher order)",
+}  # fmt: skip
+
+
+def _regime_handles(regimes) -> list:
+    """Legend handles of the regimes present (grey: the colour is the curve's)."""
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], ls="", marker=_REGIME_MARKERS[r], color="0.55", mec="k", mew=0.4,
+                   ms=6, label=f"run in {r}")
+            for r in _REGIME_MARKERS if r in regimes]  # fmt: skip
+
+
+def _stability_handles() -> list:
+    from matplotlib.lines import Line2D
+
+    return [Line2D([], [], ls="", marker="o", color="0.3", ms=4, label="stable TT"),
+            Line2D([], [], ls="", marker="o", mfc="white", mec="0.3", ms=4,
+                   label="unstable TT")]  # fmt: skip
+
+
+def _legend(fig, axes, extra: list | None = None) -> None:
+    """One legend for the figure, right of the axes (it hid data inside them): every
+    labelled artist of ``axes`` once, then ``extra`` handles."""
+    handles, labels = [], []
+    for ax in axes:
+        for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            if label not in labels:
+                handles.append(h)
+                labels.append(label)
+    for h in extra or []:
+        if h.get_label() not in labels:
+            handles.append(h)
+            labels.append(h.get_label())
+    if handles:
+        fig.legend(handles, labels, loc="outside right upper", fontsize="x-small")
+
+
+def _note_handle(text: str):
+    """A legend entry that is only text (a statement of the paper with no value to draw)."""
+    from matplotlib.lines import Line2D
+
+    return Line2D([], [], ls="", label=text)
+
+
 def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path, Path]:
     """``NAME.png`` (a panel per y: each curve, stable points filled, unstable open, the
-    theory dotted) and ``NAME.csv`` (:func:`study_rows`) of a study's store."""
+    theory dotted, what the paper states drawn where SPEC §14 states it; a figure of runs whose
+    y are all stresses has one panel) and ``NAME.csv`` (:func:`study_rows`) of a study's
+    store."""
     from .plots import _figure, _save
 
     folder = Path(folder)
@@ -263,39 +376,57 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
             writer.writeheader()
             writer.writerows(rows)
     ys = study["y"]
-    fig = _figure((6.4, 2.4 * len(ys) + 1.0))
-    axes = np.atleast_1d(fig.subplots(len(ys), 1, sharex=True))
-    if study.get("figure") == "runs":
-        fits = _draw_runs(axes, ys, rows, study)
+    runs = study.get("figure") == "runs"
+    one_panel = runs and len(ys) > 1 and all(is_stress(y) for y in ys)  # one unit: one panel
+    panels = 1 if one_panel else len(ys)
+    fig = _figure((8.8, 2.4 * panels + 1.0))
+    axes = np.atleast_1d(fig.subplots(panels, 1, sharex=True))
+    extra, regimes = [], set()
+    if runs:
+        if one_panel:
+            fits = _draw_runs_one_panel(axes[0], ys, rows, study)
+        else:
+            fits = _draw_runs(axes, ys, rows, study)
+        regimes = {r["regime"] for r in rows}
     else:
         fits = {}
         _draw_branches(axes, ys, rows, study)
+        extra += _stability_handles()
         overlay = study.get("overlay")
         if overlay and (folder / f"{overlay}.h5").exists():  # runs beyond lambda_c
             other, _ = load_study(overlay, study.get("quick", False))
-            runs = study_rows(SweepStore.read(folder / f"{overlay}.h5"), other)
-            mapped = [{**r, **{y: r.get(f"mean.{y}", np.nan) for y in ys}} for r in runs]
+            overlaid = study_rows(SweepStore.read(folder / f"{overlay}.h5"), other)
+            mapped = [{**r, **{y: r.get(f"mean.{y}", np.nan) for y in ys}} for r in overlaid]
             _draw_runs(axes, ys, mapped, {**other, "fit": None}, legend_curves=False)
-    for ax, y in zip(axes, ys, strict=True):
-        ax.set_ylabel(y)
+            regimes = {r["regime"] for r in overlaid}
+    extra += _regime_handles(regimes)
+    for ax, y in zip(axes, ["stress"] if one_panel else ys, strict=True):
+        ax.set_ylabel(f"stress {STRESS_UNIT}" if one_panel else axis_label(y))
         ax.grid(alpha=0.3, which="both")
         ax.set_xscale(study.get("xscale", "linear"))
-    axes[-1].set_xlabel({"Delta": r"excess area $\Delta$", "lam": r"$\lambda$",
-                         "chi": r"$\chi$", "v": "v"}.get(study["x"], study["x"]))  # fmt: skip
+    axes[-1].set_xlabel(_LABELS.get(study["x"], study["x"]))
     if study.get("theory"):
-        axes[0].plot([], [], color="0.3", ls=":", label=f"leading order ({study['theory']})")
-    axes[0].legend(fontsize="x-small")
+        extra.append(_theory_handle(study["theory"]))
+    mark = PAPER_MARKS.get(study["name"])
+    if mark is not None:
+        extra += mark(axes, ys, rows, study, fits)
+    _legend(fig, axes, extra)
     if fits:
         (folder / f"{study['name']}_fit.json").write_text(json.dumps(fits, indent=1))
     d = store_discretisation(store)
     label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
              + (", quick" if study.get("quick") else ""))  # fmt: skip
-    note = "open: unstable TT" if study.get("figure") != "runs" else "o TT, ^ TR, s TU"
-    axes[0].set_title(f"{study.get('title', study['name'])}\n({label}; {note})",
-                      fontsize="small")  # fmt: skip
+    axes[0].set_title(f"{study.get('title', study['name'])}\n({label})", fontsize="small")
     figure = _save(fig, folder / f"{study['name']}.png", 120)
     log.info("wrote %s and %s", figure, table)
     return figure, table
+
+
+def _theory_handle(name: str):
+    from matplotlib.lines import Line2D
+
+    label = THEORY_LABELS.get(name, f"leading-order theory ({name}, dotted): valid as v → 1")
+    return Line2D([], [], color="0.3", ls=":", lw=1.0, label=label)
 
 
 def _runs_dir(store: SweepStore) -> Path:
@@ -328,15 +459,15 @@ def _plot_series(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Pa
         t = run.series["t"]
         for ax, y in zip(row, ys, strict=False):
             ax.plot(t, run.series[y], lw=1.0)
-            ax.set_xlabel("t")
-            ax.set_ylabel(y)
+            ax.set_xlabel(_LABELS["t"])
+            ax.set_ylabel(axis_label(y))
             ax.grid(alpha=0.3)
         ax = row[-1]
         ax.plot(run.series["psi"], run.series["D"], lw=0.8)
-        ax.set_xlabel(r"$\psi$")
-        ax.set_ylabel("D")
+        ax.set_xlabel(_LABELS["psi"])
+        ax.set_ylabel(_LABELS["D"])
         ax.grid(alpha=0.3)
-        row[0].set_title(f"lam = {r['lam']:g}, chi = {r['chi']:g}: {r.get('regime')}"
+        row[0].set_title(rf"$\lambda$ = {r['lam']:g}, $\chi$ = {r['chi']:g}: {r.get('regime')}"
                          + (f", T = {r['period']:.3g}" if r.get("period") else ""),
                          fontsize="x-small")  # fmt: skip
     fig.suptitle(study.get("title", study["name"]), fontsize="small")
@@ -348,6 +479,12 @@ def _curves(rows: list[dict]) -> list[str]:
     return sorted({r["curve"] for r in rows}, key=lambda c: float(c.split("=")[1]))
 
 
+def curve_label(name: str) -> str:
+    """``"lam = 1"`` as ``"λ = 1"`` (the curves' names in the tables stay as they are)."""
+    key, _, value = name.partition(" = ")
+    return f"{_LABELS.get(key, key)} = {value}"
+
+
 def _draw_branches(axes, ys, rows, study) -> None:
     theory = THEORIES.get(study.get("theory") or "")
     for k, name in enumerate(_curves(rows)):
@@ -356,7 +493,8 @@ def _draw_branches(axes, ys, rows, study) -> None:
         stable = np.array([r["stable"] for r in pts])
         for ax, y in zip(axes, ys, strict=True):
             v = np.array([r[y] for r in pts])
-            ax.plot(x, v, color=f"C{k}", lw=1.2, label=name if y == ys[0] else None)
+            ax.plot(x, v, color=f"C{k}", lw=1.2,
+                    label=f"TT branch, {curve_label(name)}" if y == ys[0] else None)
             ax.scatter(x[stable], v[stable], color=f"C{k}", s=14, zorder=3)
             ax.scatter(x[~stable], v[~stable], facecolor="white", edgecolor=f"C{k}", s=14,
                        zorder=3)  # fmt: skip
@@ -364,9 +502,27 @@ def _draw_branches(axes, ys, rows, study) -> None:
             _theory_curve(axes, ys, theory, pts, study, f"C{k}")
 
 
+def _draw_period_fit(axes, ys, pts, study, name: str, color: str) -> dict | None:
+    """The fit ``T = c (lam - lam_c)^(-p)`` of one curve's periods, drawn dashed on its period
+    and chi T panels."""
+    fit = period_fit([r[study["x"]] for r in pts], [r.get("period") for r in pts])
+    if fit is None:
+        return None
+    for ax, y in zip(axes, ys, strict=True):
+        if y in ("period", "chiT"):
+            scale = float(pts[0]["chi"]) if y == "chiT" else 1.0
+            xs = np.linspace(fit["lambda_c"] + 1e-3, max(r[study["x"]] for r in pts), 80)
+            label = (rf"fit ({curve_label(name)}): $p$ = {fit['p']:.3f}, "
+                     rf"$\lambda_c$ = {fit['lambda_c']:.4g}")  # fmt: skip
+            ax.plot(xs, scale * fit["c"] * (xs - fit["lambda_c"]) ** -fit["p"], color=color,
+                    ls="--", lw=0.9, label=label)  # fmt: skip
+    return fit
+
+
 def _draw_runs(axes, ys, rows, study, legend_curves: bool = True) -> dict:
-    """Each run's y, marked by its regime; with ``fit = "period"`` the fit of each curve's
-    periods ``T = c (lam - lam_c)^(-p)`` (returned by curve)."""
+    """Each run's y, marked by its regime (the legend's regime handles are the caller's:
+    :func:`_regime_handles`), coloured by its curve; with ``fit = "period"`` the fit of each
+    curve's periods ``T = c (lam - lam_c)^(-p)`` (returned by curve)."""
     fits = {}
     for k, name in enumerate(_curves(rows)):
         pts = [r for r in rows if r["curve"] == name]
@@ -375,21 +531,40 @@ def _draw_runs(axes, ys, rows, study, legend_curves: bool = True) -> dict:
                 sel = [r for r in pts if r["regime"] == regime]
                 ax.scatter([r[study["x"]] for r in sel], [r[y] for r in sel], marker=marker,
                            color=f"C{k}", s=26, edgecolor="k", lw=0.4, zorder=4)  # fmt: skip
-            if legend_curves and y == ys[0]:
-                ax.plot([], [], color=f"C{k}", marker="o", ls="", label=f"runs: {name}")
+            if legend_curves and y == ys[0]:  # the colour only: the marker is the regime's
+                ax.plot([], [], color=f"C{k}", lw=4, label=f"runs: {curve_label(name)}")
         if study.get("fit") == "period":
-            fit = period_fit([r[study["x"]] for r in pts], [r.get("period") for r in pts])
+            fit = _draw_period_fit(axes, ys, pts, study, name, f"C{k}")
             if fit is not None:
                 fits[name] = fit
-                for ax, y in zip(axes, ys, strict=True):
-                    if y in ("period", "chiT"):
-                        scale = float(pts[0]["chi"]) if y == "chiT" else 1.0
-                        xs = np.linspace(fit["lambda_c"] + 1e-3, max(r[study["x"]] for r in pts),
-                                         80)  # fmt: skip
-                        label = f"fit p = {fit['p']:.3f}, lam_c = {fit['lambda_c']:.4g}"
-                        ax.plot(xs, scale * fit["c"] * (xs - fit["lambda_c"]) ** -fit["p"],
-                                color=f"C{k}", ls="--", lw=0.9, label=label)  # fmt: skip
     return fits
+
+
+def _draw_runs_one_panel(ax, ys, rows, study) -> dict:
+    """Runs whose y are all stresses in one panel: a colour per quantity, the marker of each
+    run's regime, the runs of each curve joined (a line style per curve)."""
+    styles = ["-", "--", ":", "-."]
+    names = _curves(rows)
+    for j, y in enumerate(ys):
+        color = f"C{j}"
+        for k, name in enumerate(names):
+            pts = sorted((r for r in rows if r["curve"] == name), key=lambda r: r[study["x"]])
+            if len(pts) > 1:
+                ax.plot([r[study["x"]] for r in pts], [r[y] for r in pts], color=color,
+                        ls=styles[k % len(styles)], lw=0.8)  # fmt: skip
+            for regime, marker in _REGIME_MARKERS.items():
+                sel = [r for r in pts if r["regime"] == regime]
+                ax.scatter([r[study["x"]] for r in sel], [r[y] for r in sel], marker=marker,
+                           color=color, s=30, edgecolor="k", lw=0.4, zorder=4)  # fmt: skip
+        ax.plot([], [], color=color, lw=4, label=axis_label(y, unit=False))
+    ax.axhline(0.0, color="0.6", lw=0.8, ls=":")
+    if len(names) > 1:
+        for k, name in enumerate(names):
+            ax.plot([], [], color="0.3", ls=styles[k % len(styles)], lw=0.8,
+                    label=f"runs: {curve_label(name)}")
+    elif names:
+        ax.plot([], [], ls="", label=f"runs: {curve_label(names[0])}")
+    return {}
 
 
 def period_fit(lam, periods, lambda_c: float | None = None) -> dict | None:
@@ -459,15 +634,26 @@ def _plot_maps(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path
         for ax, y in zip(row, ys, strict=True):
             c = ax.contourf(lam, psi, np.asarray(m[y]), levels=14, cmap="viridis")
             ax.contour(lam, psi, np.asarray(m[y]), levels=14, colors="k", linewidths=0.3)
-            fig.colorbar(c, ax=ax, shrink=0.85)
+            fig.colorbar(c, ax=ax, shrink=0.85).set_label(STRESS_UNIT if is_stress(y) else "",
+                                                          fontsize="x-small")
             if trajectory:
                 pts = [r for r in trajectory if abs(r["chi"] - m["chi"]) < 1e-12]
                 ax.plot([r["lam"] for r in pts], [r["psi"] for r in pts], color="w", lw=1.4)
             ax.plot([m["lam"]], [m["state"]["psi"]], "r*", ms=9)
-            ax.set_title(f"{y}: axes {lengths}\n(state lam = {m['lam']:g}, chi = {m['chi']:g})",
+            ax.set_title(f"{axis_label(y, unit=False)}: axes {lengths}\n(state "
+                         rf"$\lambda$ = {m['lam']:g}, $\chi$ = {m['chi']:g})",
                          fontsize="x-small")  # fmt: skip
             ax.set_xlabel(r"$\lambda$")
-            ax.set_ylabel(r"$\psi$")
+            ax.set_ylabel(_LABELS["psi"])
+    if maps:
+        from matplotlib.lines import Line2D
+
+        handles = [Line2D([], [], ls="", marker="*", color="r", ms=9, label="the state mapped")]
+        if trajectory:
+            handles.insert(0, Line2D([], [], color="w", lw=1.4,
+                                     label=r"TT branch $\psi(\lambda)$ at the state's $\chi$"))
+        fig.legend(handles=handles, loc="outside lower center", ncols=len(handles),
+                   fontsize="x-small", facecolor="0.75")  # fmt: skip
     fig.suptitle(study.get("title", study["name"]), fontsize="small")
     figure = _save(fig, folder / f"{study['name']}.png", 120)
     return figure, table
@@ -506,3 +692,100 @@ def _theory_curve(axes, ys, theory, pts, study, color) -> None:
     for ax, y in zip(axes, ys, strict=True):
         if y in vals[0]:
             ax.plot(grid, [v[y] for v in vals], color=color, ls=":", lw=1.0)
+
+
+# ------------------------------------------------------- what the paper states (SPEC §14)
+PAPER_STYLE = {"color": "k", "ls": "-.", "lw": 1.0}
+
+
+def _paper_label(text: str) -> str:
+    from .paper import PAPER_LABEL
+
+    return f"{PAPER_LABEL}: {text}"
+
+
+def _marks_lambda_c(axes, ys, rows, study, fits) -> list:
+    """Figure 5 (v = 0.95, chi = 1): lambda_c = 8.46, and psi negative before it."""
+    from .paper import PAPER_LAMBDA_C_CHI1
+
+    if not any(r["v"] == 0.95 and r["chi"] == 1.0 for r in rows):
+        return []
+    for ax in axes:
+        ax.axvline(PAPER_LAMBDA_C_CHI1, **PAPER_STYLE,
+                   label=_paper_label(rf"$\lambda_c$ = {PAPER_LAMBDA_C_CHI1} (v = 0.95, "
+                                      r"$\chi$ = 1)"))  # fmt: skip
+    if "psi" in ys:
+        axes[ys.index("psi")].axhline(0.0, color="k", ls=":", lw=0.8,
+                                      label=_paper_label(r"$\psi$ < 0 before $\lambda_c$, TT "
+                                                         "still stable"))  # fmt: skip
+    return []
+
+
+def _marks_period_exponent(axes, ys, rows, study, fits) -> list:
+    """Figure 12 (chi = 0.2): T ~ (lam - lam_c)^(-1/2), drawn through our runs at our fitted
+    lam_c (the paper gives the exponent, not the constant)."""
+    from .paper import PAPER_PERIOD_EXPONENT as p
+
+    for name, fit in fits.items():
+        pts = [(r[study["x"]], r["period"]) for r in rows if r["curve"] == name
+               and r.get("period") is not None and np.isfinite(r["period"])]  # fmt: skip
+        x, t = np.array(pts).T
+        lc = fit["lambda_c"]
+        c = float(np.exp(np.mean(np.log(t) + p * np.log(x - lc))))
+        xs = np.linspace(lc + 1e-3, x.max(), 80)
+        chi = float(next(r["chi"] for r in rows if r["curve"] == name))
+        for ax, y in zip(axes, ys, strict=True):
+            if y in ("period", "chiT"):
+                scale = chi if y == "chiT" else 1.0
+                ax.plot(xs, scale * c * (xs - lc) ** -p, **PAPER_STYLE,
+                        label=_paper_label(r"$T \propto (\lambda-\lambda_c)^{-1/2}$ (drawn "
+                                           r"through our runs at our fitted $\lambda_c$)"))
+    return [_note_handle(_paper_label(r"$\chi T$ nearly independent of $\chi$"))]
+
+
+def _marks_chi_t(axes, ys, rows, study, fits) -> list:
+    return [_note_handle(_paper_label(r"$\chi T$ nearly independent of $\chi$ (compare the "
+                                      r"$\chi$ = 0.2 figure)"))]  # fmt: skip
+
+
+def _marks_stress_lambda(axes, ys, rows, study, fits) -> list:
+    """Figure 14 (TT): S_xz has a minimum in lam; N1 > 0, N2 < 0, shrinking towards the
+    transition; both about 0 averaged over TR and TU periods."""
+    for ax, y in zip(axes, ys, strict=True):
+        if y in ("N1", "N2"):
+            ax.axhline(0.0, color="k", ls=":", lw=0.8)
+    return [_note_handle(_paper_label(r"$S_{xz}(\lambda)$ has a minimum (a cusp at the TT–TU "
+                                      "transition at low shear, smooth inside TT at high "
+                                      "shear)")),
+            _note_handle(_paper_label(r"$N_1 > 0$, $N_2 < 0$ in TT, shrinking towards the "
+                                      r"transition; $\approx 0$ averaged over TR and TU "
+                                      "(dotted: 0)"))]  # fmt: skip
+
+
+def _marks_stress_runs(axes, ys, rows, study, fits) -> list:
+    return [_note_handle(_paper_label(r"$\langle N_1\rangle$, $\langle N_2\rangle \approx 0$ "
+                                      "in TR and TU (dotted: 0)"))]  # fmt: skip
+
+
+def _marks_shear_thinning(axes, ys, rows, study, fits) -> list:
+    return [_note_handle(_paper_label(r"weakly shear-thinning: $S_{xz}$ decreases with "
+                                      r"$\chi$"))]  # fmt: skip
+
+
+def _marks_experiments(axes, ys, rows, study, fits) -> list:
+    return [_note_handle(_paper_label("its angles agree with Kantsler & Steinberg (2005) "
+                                      "(no values given)"))]  # fmt: skip
+
+
+#: What SPEC §14 states for a study's figure, drawn on it (a line labelled "paper (SPEC
+#: §14)") or, where it states a trend with no value, named in its legend: study name ->
+#: ``(axes, ys, rows, study, fits) -> extra legend handles``.
+PAPER_MARKS: dict[str, Callable] = {
+    "tt-shape-lambda": _marks_lambda_c,
+    "periods-low-shear": _marks_period_exponent,
+    "periods-high-shear": _marks_chi_t,
+    "stress-lambda": _marks_stress_lambda,
+    "stress-lambda-runs": _marks_stress_runs,
+    "stress-chi": _marks_shear_thinning,
+    "tt-excess-area": _marks_experiments,
+}

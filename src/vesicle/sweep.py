@@ -62,9 +62,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .analysis import diagnose, summarize
-from .branch import PARAMETERS, branch, parse_values, reach
+from .branch import PARAMETERS, branch, reach
 from .config import SECTIONS, ConfigError, solver_from
 from .critical import critical_lambda, critical_summary
 from .dynamics import RunParameters
@@ -72,8 +72,9 @@ from .ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 from .io import open_file, read_run, stamp, write_atomically
 from .neutral import neutral_curve
 from .neutral_io import Checkpoint
-from .parallel import local_cluster
+from .parallel import close_cluster, local_cluster
 from .parameters import Discretisation, Physics, stable_key
+from .ranges import parse_range
 from .simulation import load_parameters, simulate
 from .stability import stability
 from .steady import ORIENTATIONS
@@ -129,8 +130,7 @@ def _critical(physics: Physics, disc: Discretisation, options: dict, settings: d
 
 
 def _branch_values(options: dict) -> list[float]:
-    return parse_values(str(options["values"]) if not isinstance(options["values"], list)
-                        else ",".join(str(x) for x in options["values"]))  # fmt: skip
+    return parse_range(options["values"], "step", name="[task] values")
 
 
 def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
@@ -153,11 +153,8 @@ def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dic
 FOLDERS = ("runs_dir", "curves_dir")
 
 def _neutral_chi(options: dict) -> list[float]:
-    chi = options.get("chi", "0.1:10")
-    if isinstance(chi, list):
-        return [float(x) for x in chi]
-    lo, hi = (float(x) for x in str(chi).split(":"))
-    return [float(x) for x in np.geomspace(lo, hi, int(options.get("points", 10)))]
+    return parse_range(options.get("chi", "0.1:10"), "log", points=options.get("points"),
+                       name="[task] chi", positive=True)
 
 
 def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
@@ -183,19 +180,19 @@ def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: di
     return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
 
 
-def _values(spec, points: int) -> list[float]:
+def _values(spec, points: int, name: str) -> list[float]:
+    """``ellipsoid_map``'s ``psi``/``lams``: a list, or ``LOW:HIGH`` with ``points`` values."""
     if isinstance(spec, list):
-        return [float(x) for x in spec]
-    lo, hi = (float(x) for x in str(spec).split(":"))
-    return [float(x) for x in np.linspace(lo, hi, points)]
+        return parse_range(spec, "linear", name=name)
+    return parse_range(spec, "linear", points=points, name=name)
 
 
 def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     """S^V of the TT state's equivalent ellipsoid turned over ``psi`` for every ``lams``."""
     state = reach(physics, disc, **{k: options[k] for k in ("jacobian",) if k in options})
     d = diagnose(state.shape)
-    psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)))
-    lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)))
+    psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)), "[task] psi")
+    lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)), "[task] lams")
     m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid)
     return {"vesicle_version": __version__, "physics": physics.to_dict(),
             "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
@@ -242,6 +239,24 @@ class Task:
     function: Callable[[Physics, Discretisation, dict, dict], dict]
     swept: tuple[str, ...]  # the [grid] keys it takes
     options: tuple[str, ...]  # the [task] keys it takes
+    #: why a result falls short of what the point asked for (None: it reached all of it); such
+    #: a point is recorded as failed, with what it found, and a rerun tries it again
+    incomplete: Callable[[dict], str | None] = lambda result: None
+
+
+def _branch_incomplete(result: dict) -> str | None:
+    """A branch that stopped before its last value (a fold, a failed step) is not done."""
+    if not result.get("stopped"):
+        return None
+    return f"the branch stopped before its last value: {result['stopped']}"
+
+
+def _neutral_incomplete(result: dict) -> str | None:
+    """A neutral curve with points it could not trace is not done."""
+    if not result.get("failed"):
+        return None
+    where = [f"before chi = {f['chi']:.4g}: {f['error']}" for f in result["failed"]]
+    return "the curve stopped: " + "; ".join(where)
 
 
 #: The tasks, by name; each point's result has the keys of the command's own --json output.
@@ -255,12 +270,15 @@ TASKS = {
         ("jacobian", "max_iterations", "xtol", "lam0", "orientation", "coarse"),
     ),
     "branch": Task(
-        _branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold", "ellipsoid")
+        _branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold", "ellipsoid"),
+        _branch_incomplete,
     ),
     "neutral": Task(
         _neutral,
         ("v",),
-        ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change", "orientation"),
+        ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change", "orientation",
+         "modes"),
+        _neutral_incomplete,
     ),
     "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
     "run": Task(_run, GRID_KEYS, ()),
@@ -409,6 +427,7 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
         if "modes" in options and options["modes"] not in ("symmetric", "general"):
             raise ValueError(f"[task] modes must be 'symmetric' or 'general', got "
                              f"{options['modes']!r}")  # fmt: skip
+        _check_task_numbers(options)
         _check_task(task, options, grid, points)
     except (ValueError, TypeError) as err:
         raise ConfigError(f"{path}: {err}") from None
@@ -418,6 +437,18 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
     if not out.is_absolute():
         out = path.parent / out
     return SweepConfig(path, task, out, points, disc, options, settings, text)
+
+
+def _check_task_numbers(options: dict) -> None:
+    """The [task] numbers, as the commands' options take them (raises ValueError naming the
+    key): tolerances and ``lam0`` positive and finite, ``max_iterations`` at least 1,
+    ``past_fold`` not negative, ``points`` (of a range) at least 2."""
+    for key in ("xtol", "type_tol", "lam0"):
+        if key in options and not (np.isfinite(options[key]) and options[key] > 0):
+            raise ValueError(f"[task] {key} must be a positive number, got {options[key]!r}")
+    for key, least in (("max_iterations", 1), ("past_fold", 0), ("points", 2)):
+        if key in options and options[key] < least:
+            raise ValueError(f"[task] {key} must be at least {least}, got {options[key]!r}")
 
 
 def _check_task(task: str, options: dict, grid: dict, points) -> None:
@@ -440,11 +471,7 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
     if task == "ellipsoid_map":
         for key in ("psi", "lams"):
             if key in options:
-                try:
-                    values = _values(options[key], int(options.get("points", 15)))
-                except ValueError:
-                    raise ValueError(f"[task] {key} must be a range \"LOW:HIGH\" or a list, got "
-                                     f"{options[key]!r}") from None  # fmt: skip
+                values = _values(options[key], options.get("points", 15), f"[task] {key}")
                 if key == "lams" and any(not (x > 0) for x in values):
                     raise ValueError(f"[task] lams must be positive, got {options[key]!r}")
     if task == "neutral":
@@ -452,13 +479,7 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
                                         options["points"] >= 2):  # fmt: skip
             raise ValueError("[task] points goes with a chi range \"LOW:HIGH\" and must be "
                              "at least 2")  # fmt: skip
-        try:
-            chis = _neutral_chi(options)
-        except ValueError:
-            raise ValueError(f"[task] chi must be a range \"LOW:HIGH\" or a list, got "
-                             f"{options.get('chi')!r}") from None  # fmt: skip
-        if not chis or any(not (c > 0 and np.isfinite(c)) for c in chis):
-            raise ValueError(f"[task] chi values must be positive, got {options.get('chi')!r}")
+        _neutral_chi(options)
     if "jacobian" in options and options["jacobian"] not in ("linearised", "differences"):
         raise ValueError(f"[task] jacobian must be 'linearised' or 'differences', got "
                          f"{options['jacobian']!r}")  # fmt: skip
@@ -583,10 +604,10 @@ def run_point(task: str, physics: dict, disc: dict, options: dict, settings: dic
             Physics.from_dict(physics), Discretisation.from_dict(disc), options, settings
         )
         entry = {"status": "done", "result": _plain(result)}
-        if result.get("failed"):  # a neutral curve that stopped: what it found is kept, and
-            # the point counts as failed (a rerun tries it again)
-            where = [f"before chi = {f['chi']:.4g}: {f['error']}" for f in result["failed"]]
-            entry.update(status="failed", error="the curve stopped: " + "; ".join(where))
+        short = TASKS[task].incomplete(result)
+        if short is not None:  # what it found is kept; the point counts as failed (a rerun
+            # tries it again)
+            entry.update(status="failed", error=short)
     except Exception as err:
         entry = {"status": "failed", "error": f"{type(err).__name__}: {err}",
                  "traceback": traceback.format_exc(limit=6)}  # fmt: skip
@@ -707,5 +728,5 @@ def run_sweeps(
                 future.cancel()
         client.close()
         if cluster is not None:
-            cluster.close()
+            close_cluster(cluster)
     return stores

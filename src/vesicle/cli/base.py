@@ -5,13 +5,21 @@ The CLI is the only layer that prints; library code logs through :mod:`logging`.
 
 from __future__ import annotations
 
+import functools
 import logging
+import os
 import shlex
+import signal
 import sys
+import tempfile
+import threading
+from collections.abc import Callable
+from pathlib import Path
 
 import click
 
-from .. import __version__
+from .._version import __version__
+from ..costs import command_help
 
 
 def fail(message: str) -> None:
@@ -19,7 +27,12 @@ def fail(message: str) -> None:
     raise click.ClickException(message)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.group(
+    context_settings={"help_option_names": ["-h", "--help"]},
+    help=command_help(
+        "Spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow."
+    ),
+)
 @click.version_option(__version__, prog_name="vesicle")
 @click.option(
     "--verbose",
@@ -28,13 +41,8 @@ def fail(message: str) -> None:
     "the reduced volume of the commands.",
 )
 def main(verbose: int) -> None:
-    """Spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow.
-
-    Costs at the default resolution (N = 8 on 32 x 64) on a 2-core machine: `tt --stability`
-    about 33 s, `critical` about 5 min, `run` about 3 s per time step near lambda = 8 (260 s
-    per unit of time; 155 s at lambda = 1); `neutral` at N = 4 on 16 x 32 about 2.5 min for
-    chi = 0.2, 1, 3.
-    """
+    """The ``vesicle`` command group. Its help (``help=`` above) is the one-line summary with
+    the measured costs of :mod:`vesicle.costs`, the one table the README and docs quote."""
     configure_logging(logging.WARNING - 10 * min(verbose, 2))
 
 
@@ -73,3 +81,89 @@ def with_version(out: dict, **parameters) -> dict:
     """A ``--json`` object with ``vesicle_version`` and the given parameter objects' dicts."""
     extra = {k: (v.to_dict() if hasattr(v, "to_dict") else v) for k, v in parameters.items()}
     return {"vesicle_version": __version__, **extra, **out}
+
+
+def check_output(
+    path: str | os.PathLike,
+    *,
+    overwrite: bool = False,
+    resume: bool | None = None,
+    option: str = "--out",
+) -> Path:
+    """The one rule for every file a command writes, checked before any work.
+
+    The folder must exist and take a new file (tried: a permission bit says nothing about
+    ``/proc`` or a read-only mount).  An existing file is replaced only with ``--overwrite``;
+    ``resume`` says whether the command can continue it instead (``None``: it cannot;
+    ``False``: it can, with ``--resume``; ``True``: it is being resumed, so it must exist).
+    """
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        fail(f"cannot write {option} {path}: the folder {folder} does not exist")
+    try:
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=".vesicle-probe-"):
+            pass
+    except OSError as err:
+        fail(f"cannot write {option} {path}: the folder {folder} does not take new files "
+             f"({err.strerror or err})")  # fmt: skip
+    if resume:
+        return path
+    if path.exists() and not overwrite:
+        how = ", continue it with --resume" if resume is False else ""
+        fail(f"{path} exists; choose another {option}{how}, or replace it with --overwrite")
+    return path
+
+
+def _interrupt(*_) -> None:
+    raise KeyboardInterrupt
+
+
+def interruptible(kept: Callable[[dict], str]):
+    """A command that Ctrl-C or SIGTERM ends with one line saying what was kept and how to go
+    on (exit code 130), instead of click's bare "Aborted!".
+
+    ``kept(params)`` builds that line from the command's parameters (read, say, the points of an
+    ``--out`` file written as they were found).  Place it directly above the function."""
+
+    def wrap(fn):
+        @functools.wraps(fn)
+        def run(*args, **params):
+            main_thread = threading.current_thread() is threading.main_thread()
+            previous = signal.signal(signal.SIGTERM, _interrupt) if main_thread else None
+            try:
+                return fn(*args, **params)
+            except KeyboardInterrupt:
+                try:
+                    text = kept(params)
+                except Exception as err:  # the message must not hide the interruption
+                    text = f"(what was kept could not be read: {err})"
+                click.echo(f"\ninterrupted: {text}", err=True)
+                sys.exit(130)
+            finally:
+                if main_thread:
+                    signal.signal(signal.SIGTERM, previous)
+
+        return run
+
+    return wrap
+
+
+def check_scheduler(address: str | None, local: bool = False) -> None:
+    """Refuse, before any work, a ``--scheduler`` that is not a Dask scheduler's address
+    (``tcp://host:port``; Dask reads ``host:port`` as tcp): a client would otherwise only find
+    out after the store or the output folder was written, and a half-made client can hang at
+    exit.  ``local``: the command also takes ``local`` (a LocalCluster started here)."""
+    if address is None or (local and address == "local"):
+        return
+    from distributed.comm.addressing import parse_address, parse_host_port  # with --scheduler
+
+    try:
+        _, location = parse_address(address)
+        _, port = parse_host_port(location)
+        if not 0 < port < 65536:
+            raise ValueError(f"port {port} out of range")
+    except ValueError as err:
+        hint = "; for a LocalCluster started here give --workers" if address == "local" else ""
+        fail(f"--scheduler must be a Dask scheduler address such as tcp://127.0.0.1:8786, got "
+             f"{address!r} ({err}){hint}")  # fmt: skip

@@ -33,6 +33,21 @@ def shape_summary(s: Shape) -> dict:
     }
 
 
+#: The smallest grid and (for a shape other than the sphere) degree: those of
+#: :class:`vesicle.Discretisation`; a degree below 2 holds only the sphere (a "spheroid" of
+#: v = 0.9 at degree 1 is the unit sphere, v = 1).
+MIN_GRID, MIN_DEGREE = 4, 2
+
+
+def _check_resolution(grid: int, degree: int | None, sphere: bool = False) -> None:
+    """Refuse, before any work, a grid or degree too small for the shape asked for."""
+    if grid < MIN_GRID:
+        _fail(f"--grid must be at least {MIN_GRID} (n_theta; n_phi = 2 n_theta), got {grid}")
+    if degree is not None and degree < (0 if sphere else MIN_DEGREE):
+        _fail(f"--degree must be at least {MIN_DEGREE} (a lower degree holds only the sphere), "
+              f"got {degree}")  # fmt: skip
+
+
 @main.command()
 @click.option("--ellipsoid", nargs=3, type=float, metavar="A B C", help="Semi-axes along x, y, z.")
 @click.option(
@@ -56,6 +71,7 @@ def shape(ellipsoid, v, grid, degree, as_json) -> None:
     """Geometry of a shape: area, volume, reduced volume, excess area, bending energy."""
     if (ellipsoid is None) == (v is None):
         _fail("give exactly one of --ellipsoid A B C or --spheroid V")
+    _check_resolution(grid, degree)
     try:
         s = (
             Shape.ellipsoid(*ellipsoid, grid=grid, degree=degree)
@@ -130,6 +146,13 @@ def parse_shape(spec: str, grid: int, degree: int | None, tilt_degrees: float) -
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object on stdout.")
 def solve(shape_spec, tilt, grid, degree, steady, split, as_json, **options) -> None:
     """Membrane velocity, tension and particle stress of a fixed shape."""
+    _check_resolution(grid, degree, sphere=shape_spec == "sphere")
+    if not np.isfinite(tilt):
+        _fail(f"--tilt must be a finite angle in degrees, got {tilt}")
+    if options["n_rot"] is not None and options["n_rot"] < 2:
+        _fail(f"--n-rot must be at least 2, got {options['n_rot']}")
+    if options["threads"] is not None and options["threads"] < 1:
+        _fail(f"--threads must be at least 1, got {options['threads']}")
     try:
         s = parse_shape(shape_spec, grid, degree, tilt)
         lam, chi, flow = options.pop("lam"), options.pop("chi"), options.pop("flow")

@@ -4,31 +4,39 @@ from __future__ import annotations
 
 import click
 
+from ..costs import COSTS
 from ..paper import ITEMS, build_report
-from .base import fail, main
+from .base import check_scheduler, fail, interruptible, main
 
 
 @main.command("paper")
 @click.option("--quick", is_flag=True,
-              help="Reduced resolution (N = 4 on 12x24, fewer points, shorter runs).")
+              help="Reduced resolution (N = 4 on 12x24, fewer points, shorter runs): about "
+                   f"{COSTS['paper_quick'].figure} on 2 cores (measured "
+                   f"{COSTS['paper_quick'].measured}).")  # fmt: skip
 @click.option("--out", "outdir", type=click.Path(file_okay=False), default="paper",
               show_default=True, help="Folder of the report and its data.")  # fmt: skip
 @click.option("--only", default=None, metavar="ITEM,...",
               help="Compute only these items (table1, fig2, fig4, ...; see --list).")  # fmt: skip
 @click.option("--list", "show_list", is_flag=True, help="List the items and exit.")
 @click.option("--redo", is_flag=True, help="Recompute items already done in --out.")
+@click.option("--redraw", is_flag=True,
+              help="Draw the items done in --out again from their stored data (figures, "
+                   "tables, comparisons); computes nothing for them.")  # fmt: skip
 @click.option("--workers", type=int, default=None,
               help="Processes of the LocalCluster of the sweeps [default: the cores].")  # fmt: skip
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run the sweeps on this Dask scheduler instead.")  # fmt: skip
-def paper_command(quick, outdir, only, show_list, redo, workers, scheduler) -> None:
+@interruptible(lambda p: f"the items done are kept in {p['outdir']}; run the same command "
+               "again")
+def paper_command(quick, outdir, only, show_list, redo, redraw, workers, scheduler) -> None:
     """Regenerate the paper's tables and figures into --out/index.html (static, offline).
 
     Every item is computed through the sweep engine and the studies (resumable: a second call
     only redraws), with its figures, data (CSV), parameters, wall time and, where the paper
     states a value, that value beside ours. Items the package cannot compute yet are listed as
     missing. The full report at the paper's resolution costs hours on a 2-core machine; --quick
-    is meant to finish in about half an hour.
+    is the reduced one (its measured cost below).
     """
     if show_list:
         for item in ITEMS:
@@ -39,12 +47,13 @@ def paper_command(quick, outdir, only, show_list, redo, workers, scheduler) -> N
         fail("--workers must be at least 1")
     if workers is not None and scheduler is not None:
         fail("give --workers (a LocalCluster) or --scheduler, not both")
-    keys = [k.strip() for k in only.split(",") if k.strip()] if only else None
+    check_scheduler(scheduler)
+    keys = _only_items(only)
     if not quick:
         click.echo("the full report (N = 8 on 32x64) takes hours on a 2-core machine; "
                    "--quick for the reduced one", err=True)  # fmt: skip
     try:
-        page = build_report(outdir, quick=quick, only=keys, redo=redo,
+        page = build_report(outdir, quick=quick, only=keys, redo=redo, redraw=redraw,
                             options={"workers": workers, "scheduler": scheduler},
                             progress=lambda text: click.echo(text, err=True))  # fmt: skip
     except KeyboardInterrupt:
@@ -52,3 +61,19 @@ def paper_command(quick, outdir, only, show_list, redo, workers, scheduler) -> N
     except (ValueError, OSError) as err:
         fail(str(err))
     click.echo(str(page))
+
+
+def _only_items(only: str | None) -> list[str] | None:
+    """The items of ``--only`` (None: all), each checked against the report's before any work
+    (an empty list, such as ``--only ,``, would otherwise mean every item)."""
+    if only is None:
+        return None
+    keys = [k.strip() for k in only.split(",") if k.strip()]
+    known = [item.key for item in ITEMS]
+    if not keys:
+        fail(f"--only needs item names, got {only!r}; the items are {', '.join(known)}")
+    unknown = [k for k in keys if k not in known]
+    if unknown:
+        fail(f"--only: unknown item(s) {', '.join(unknown)}; the items are {', '.join(known)} "
+             "(vesicle paper --list)")  # fmt: skip
+    return keys

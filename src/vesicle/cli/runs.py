@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import signal
 import sys
 import time
@@ -17,7 +16,7 @@ from ..analysis import summarize
 from ..branch_plots import is_branch_file, plot_branch
 from ..config import read_config, solver_from, to_toml
 from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
-from ..io import SERIES, RunData, read_run
+from ..io import SERIES, RunData, read_run, write_text_atomically
 from ..parameters import SolverTolerances
 from ..phase_plots import is_neutral_file, plot_neutral, runs_from_store
 from ..plots import plot_run
@@ -30,7 +29,7 @@ from ..study import plot_study, study_of_store
 from ..surface import ShapeError
 from ..sweep import SweepStore, is_sweep_store
 from ..vtk import export_vtk
-from .base import command_line, fail, main, with_version
+from .base import check_output, command_line, fail, main, with_version
 from .options import (
     apply_config,
     config_option,
@@ -196,28 +195,15 @@ def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> Non
         params = _run_parameters(ctx, options, config_path)
     except (ValueError, TypeError) as err:
         fail(str(err))
-    _check_writable(path, overwrite)
-    path.write_text(to_toml(params))
+    check_output(path, overwrite=overwrite, option="--write-config")
+    write_text_atomically(path, to_toml(params))
     click.echo(f"wrote {path}", err=True)
-
-
-def _check_writable(out: Path, overwrite: bool) -> None:
-    """Refuse, before any work, an output the run could not write or would silently replace."""
-    folder = out.parent if str(out.parent) else Path(".")
-    if not folder.is_dir():
-        fail(f"the output folder {folder} does not exist (for --out {out})")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        fail(f"the output folder {folder} is not writable (for --out {out})")
-    if out.exists() and not overwrite:
-        fail(
-            f"{out} exists; choose another --out, continue it with --resume {out}, "
-            "or replace it with --overwrite"
-        )
 
 
 @main.command()
 @physics_options()
-@click.option("--t-end", type=float, default=_default("t_end"), show_default=True, help="End time.")
+@click.option("--t-end", type=float, default=_default("t_end"), show_default=True,
+              help="End time, in units of mu_out a^3 / kappa (SPEC §1).")
 @click.option(
     "--out",
     type=click.Path(dir_okay=False),
@@ -249,7 +235,7 @@ def _check_writable(out: Path, overwrite: bool) -> None:
     type=float,
     default=_default("save_every"),
     show_default=True,
-    help="Time between saved steps.",
+    help="Time between saved steps (units of --t-end).",
 )
 @click.option(
     "--rtol",
@@ -259,7 +245,8 @@ def _check_writable(out: Path, overwrite: bool) -> None:
     help="Local error per step, relative to the mean radius.",
 )
 @click.option(
-    "--dt-max", type=float, default=_default("dt_max"), show_default=True, help="Largest time step."
+    "--dt-max", type=float, default=_default("dt_max"), show_default=True,
+    help="Largest time step (units of --t-end)."
 )
 @click.option(
     "--integrator",
@@ -362,11 +349,14 @@ def run(
             params = load_parameters(data)
             if ctx.get_parameter_source("t_end") != click.core.ParameterSource.DEFAULT:
                 params = params.replace(t_end=options["t_end"])
+            reached = float(data.checkpoint["t"]) if data.checkpoint else 0.0
+            if params.t_end <= reached:
+                fail(f"{resume} is already at t = {reached:g}: give --t-end beyond it to go on")
             out, start = resume, None
-            _check_writable(Path(out), overwrite=True)
+            check_output(out, resume=True)
         else:
             data, out = None, options.pop("out")
-            _check_writable(Path(out), overwrite)
+            check_output(out, overwrite=overwrite, resume=False)
             params = _run_parameters(ctx, options, config_path)
             start = _start_shape(params.init, params.physics, params.discretisation)
     except (ValueError, TypeError, ShapeError) as err:
@@ -381,13 +371,11 @@ def run(
                           attributes={"command": command} if data is None else None)  # fmt: skip
     except KeyboardInterrupt:
         bar.bar.close()
-        click.echo(
-            f"interrupted; checkpoint in {out} (resume with: vesicle run --resume {out})", err=True
-        )
+        click.echo(f"interrupted; {_kept(out)}", err=True)
         sys.exit(130)
     except (SimulationError, SolverError, ShapeError) as err:
         bar.bar.close()
-        fail(f"{err} (checkpoint in {out}; the run file holds everything up to there)")
+        fail(f"{err} ({_kept(out)})")
     except OSError as err:  # a full disk, a vanished folder: the last written file is intact
         bar.bar.close()
         kept = f"{out} keeps the last checkpoint written" if Path(out).exists() else "no file"
@@ -410,6 +398,14 @@ def run(
         click.echo(f"figures in {Path(out).with_suffix('')}/ ({len(figures)} files)", err=True)
     if as_json:
         click.echo(json.dumps(with_version({"file": str(out), **summary})))
+
+
+def _kept(out: str) -> str:
+    """What a run that stopped early left, and how to go on."""
+    if Path(out).exists():
+        return (f"checkpoint in {out}, which holds everything up to there (resume with: "
+                f"vesicle run --resume {out})")  # fmt: skip
+    return f"it stopped before its first checkpoint: nothing was written to {out}"
 
 
 @main.command()
@@ -610,6 +606,6 @@ def config_command(file, out, overwrite) -> None:
     if out is None:
         click.echo(text, nl=False)
         return
-    _check_writable(Path(out), overwrite)
-    Path(out).write_text(text)
+    check_output(out, overwrite=overwrite)
+    write_text_atomically(out, text)
     click.echo(f"wrote {out}", err=True)

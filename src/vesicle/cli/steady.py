@@ -3,27 +3,34 @@
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
 
 import click
-import numpy as np
 
-from ..branch import branch, parse_values, reach
+from ..branch import branch, reach
 from ..config import read_config
 from ..critical import critical_lambda, critical_summary
 from ..io import write_text_atomically
 from ..neutral import neutral_curve
-from ..neutral_io import Checkpoint
+from ..neutral_io import Checkpoint, states_folder
 from ..parallel import executor
 from ..parameters import Physics
 from ..problem import JACOBIANS
+from ..ranges import parse_range
 from ..solver import SolverError
 from ..stability import stability
 from ..steady import ORIENTATIONS, UPDATES, NewtonError
 from ..steady_io import steady_summary, write_steady
-from .base import command_line, fail, main, with_version
+from .base import (
+    check_output,
+    check_scheduler,
+    command_line,
+    fail,
+    interruptible,
+    main,
+    with_version,
+)
 from .options import (
     apply_config,
     config_option,
@@ -37,6 +44,7 @@ from .options import (
 def _executor(workers: int, scheduler: str | None):
     if workers < 1:
         fail("--workers must be at least 1")
+    check_scheduler(scheduler, local=True)
     return executor(workers, scheduler)
 
 
@@ -146,9 +154,7 @@ def tt(
 ) -> None:  # fmt: skip
     """Steady tank-treading shape by Newton (and its linear stability)."""
     if out is not None:
-        _writable(Path(out))
-        if Path(out).exists() and not overwrite:
-            fail(f"{out} exists; give --overwrite to replace it")
+        check_output(out, overwrite=overwrite)
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
@@ -260,7 +266,7 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
         )
     name = varied[0]
     try:
-        values = parse_values(texts[name], step)
+        values = parse_range(texts[name], "step", step=step, name=f"--{name}")
         fixed = {k: float(t) for k, t in texts.items() if k != name}
     except ValueError as err:
         fail(str(err))
@@ -282,10 +288,12 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     help="Viscosity ratio (or a range/list, e.g. 1:9 or 1,2,4,8).",
 )
 @click.option(
-    "--chi", default=str(Physics().chi), show_default=True, help="Shear rate (or a range/list)."
+    "--chi", default=str(Physics().chi), show_default=True,
+    help="Dimensionless shear rate (or a range/list)."
 )
 @physics_options(("flow",))
-@click.option("--step", type=float, default=None, help="Step of a START:STOP range [default: 1].")
+@click.option("--step", type=float, default=None,
+              help="Step size of a START:STOP range, which may run down (8:7) [default: 1].")
 @discretisation_options()
 @click.option(
     "--xtol",
@@ -326,13 +334,16 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     help="Write the branch as JSON to this file.",
 )
 @_STATES
+@click.option("--overwrite", is_flag=True,
+              help="Replace an existing --out file and --states files.")  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
+@interruptible(lambda p: "nothing was written: a branch is written when it ends (its points "
+               "were echoed above); run the command again to trace it")  # fmt: skip
 def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, orientation,
-                   modes, jacobian,
-                   workers, scheduler, out, states, as_json, config_path,
-                   **options) -> None:  # fmt: skip
+                   modes, jacobian, workers, scheduler, out, states, overwrite, as_json,
+                   config_path, **options) -> None:  # fmt: skip
     """Continue steady tank-treading in lam, chi or v, with its stability and special points.
 
     With --config, the file's [physics] gives the values of --v/--lam/--chi not given on the
@@ -358,7 +369,9 @@ def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, o
         for x in values:
             physics.replace(**{name: x})
         if out is not None:
-            _writable(Path(out))
+            check_output(out, overwrite=overwrite)
+        if states is not None:
+            _check_states(states, [f"{name}_{x:.6g}.h5" for x in values], overwrite)
         with _executor(workers, scheduler) as pool:
             modes = modes or ("general" if orientation == "vorticity" else "symmetric")
             b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
@@ -398,6 +411,22 @@ def _write_states(ctx, folder: str, named: list) -> None:
         fail(f"cannot write the states to {folder}: {err}")
 
 
+def _check_states(folder: str, names: list[str], overwrite: bool) -> None:
+    """A --states folder's files are replaced only with --overwrite (checked before work)."""
+    path = Path(folder)
+    there = [n for n in names if (path / n).exists()]
+    existing = path
+    while not existing.exists():  # the folder is made at the end: try the nearest that exists
+        existing = existing.parent
+    if there and not overwrite:
+        fail(f"--states {folder} already holds {', '.join(there[:3])}"
+             f"{' ...' if len(there) > 3 else ''}; choose another folder, or replace them with "
+             "--overwrite")  # fmt: skip
+    if path.exists() and not path.is_dir():
+        fail(f"--states {folder} is a file, not a folder")
+    check_output(existing / ".vesicle-probe", option="--states")
+
+
 def _emit_json(result: dict, out: str | None, as_json: bool) -> bool:
     """Write ``result`` to ``out`` (atomically) and print it with ``--json``; returns whether
     it was printed (then nothing else is)."""
@@ -408,35 +437,40 @@ def _emit_json(result: dict, out: str | None, as_json: bool) -> bool:
     return as_json
 
 
-def _writable(path: Path) -> None:
-    folder = path.parent if str(path.parent) else Path(".")
-    if not folder.is_dir() or not os.access(folder, os.W_OK | os.X_OK):
-        fail(f"cannot write {path}: the folder {folder} does not exist or is not writable")
+def _clear_states(folder: Path, resume: bool, overwrite: bool) -> None:
+    """A neutral curve's checkpoint folder: kept with --resume, emptied of its states with
+    --overwrite, refused otherwise if it holds states (a new curve would mix with them)."""
+    held = sorted(folder.glob("chi_*.h5")) if folder.is_dir() else []
+    if resume or not held:
+        return
+    if not overwrite:
+        fail(f"the checkpoint folder {folder} holds {len(held)} states of an earlier curve; "
+             "continue that curve with --resume, or replace it with --overwrite")  # fmt: skip
+    for path in held:
+        path.unlink()
+
+
+def _neutral_kept(out: str | None, states: str | None) -> str:
+    """What an interrupted ``vesicle neutral`` kept, and how to go on."""
+    if out is None and states is None:
+        return "nothing was kept (give --out to keep each point as it is found)"
+    if out is None:
+        return f"the states found are in {states}"
+    try:
+        points = len(json.loads(Path(out).read_text()).get("points", []))
+    except (OSError, ValueError):
+        points = 0
+    folder = states or states_folder(out)
+    return (f"{points} point{'s' if points != 1 else ''} kept in {out} (states in {folder}); "
+            "continue with the same command and --resume")  # fmt: skip
 
 
 def _chi_values(text: str, points: int | None) -> list[float]:
     """``--chi``: a list ``0.2,1,6``, or a range ``0.1:10`` with ``--points K`` (log-spaced)."""
-    text = str(text).strip()
-    if ":" in text:
-        try:
-            lo, hi = (float(x) for x in text.split(":"))
-        except ValueError:
-            fail(f"--chi range must be LOW:HIGH (with --points), got {text!r}")
-        if not (0 < lo < hi and np.isfinite(hi)):
-            fail(f"--chi range must satisfy 0 < LOW < HIGH, got {text!r}")
-        k = 10 if points is None else points
-        if k < 2:
-            fail(f"--points must be at least 2, got {k}")
-        return [float(x) for x in np.geomspace(lo, hi, k)]
-    if points is not None:
-        fail("--points goes with a --chi range LOW:HIGH")
     try:
-        values = [float(x) for x in text.split(",")]
-    except ValueError:
-        fail(f"--chi must be a list (0.2,1,6) or a range (0.1:10), got {text!r}")
-    if any(not (x > 0 and np.isfinite(x)) for x in values):
-        fail(f"--chi values must be positive, got {text!r}")
-    return values
+        return parse_range(text, "log", points=points, name="--chi", positive=True)
+    except ValueError as err:
+        fail(str(err).replace("points", "--points"))
 
 
 @main.command("neutral")
@@ -484,19 +518,27 @@ def _chi_values(text: str, points: int | None) -> list[float]:
     help="Continue the curve in --out (interrupted, or with more chi): its points whose "
     "states are kept are taken as found, the rest traced from them (the same options needed).",
 )
+@click.option("--overwrite", is_flag=True,
+              help="Replace an existing --out curve and the states of its checkpoint folder.")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
+@interruptible(lambda p: _neutral_kept(p["out"], p["states"]))
 def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orientation, modes,
-                    jacobian, workers, scheduler, out, states, resume, as_json, config_path,
-                    **options) -> None:  # fmt: skip
+                    jacobian, workers, scheduler, out, states, resume, overwrite, as_json,
+                    config_path, **options) -> None:  # fmt: skip
     """Neutral curve lambda_c(chi) at fixed v: the critical point continued in chi, with the
     bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
     chis = _chi_values(chi_text, points)
     if resume and out is None:
         fail("--resume continues the curve of an --out file: give --out")
+    if resume and overwrite:
+        fail("--resume continues the curve in --out, --overwrite replaces it: give one")
     if out is not None:
-        _writable(Path(out))
+        check_output(out, overwrite=overwrite, resume=resume)
+    if out is not None or states is not None:
+        folder = Path(states) if states is not None else states_folder(out)
+        _clear_states(folder, resume, overwrite)
     found: list[dict] = []
     try:
         _configure(ctx, options, config_path)

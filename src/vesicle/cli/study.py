@@ -8,7 +8,7 @@ import click
 
 from ..config import ConfigError
 from ..study import list_studies, run_study
-from .base import fail, main
+from .base import check_scheduler, fail, interruptible, main
 from .sweep import _progress_printer
 
 
@@ -31,6 +31,8 @@ from .sweep import _progress_printer
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="Run on this Dask scheduler (tcp://host:port) instead.")  # fmt: skip
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
+@interruptible(lambda p: f"the points done are kept in {p['outdir']}; run the same command "
+               "again to continue")
 def study_command(name, show_list, quick, degree, grid, outdir, workers, scheduler,
                   as_json) -> None:  # fmt: skip
     """Run one of the paper's parametric studies (or a study TOML file) through the sweep
@@ -58,6 +60,7 @@ def study_command(name, show_list, quick, degree, grid, outdir, workers, schedul
     for key, value in resolution.items():
         if value < 1:
             fail(f"--{key} must be at least 1, got {value}")
+    check_scheduler(scheduler)
     show, close = _progress_printer()
     try:
         result = run_study(name, outdir, quick=quick, workers=workers, scheduler=scheduler,

@@ -10,7 +10,7 @@ import click
 
 from ..config import ConfigError
 from ..sweep import SweepStore, read_sweep_config, run_sweep
-from .base import fail, main
+from .base import check_scheduler, fail, interruptible, main
 
 
 def _progress_printer():
@@ -56,10 +56,12 @@ def _progress_printer():
 @click.option("--table", "show_table", is_flag=True, help="Print the results, one row per point.")
 @click.option("--json", "as_json", is_flag=True, help="--status or --table as JSON.")
 @click.option("--csv", "as_csv", is_flag=True, help="--table as CSV.")
+@interruptible(lambda p: "the points done are kept in the sweep's store; run the same "
+               "command again to continue")
 def sweep_command(config_path, workers, scheduler, show_status, show_table, as_json,
                   as_csv) -> None:  # fmt: skip
-    """Run a task (tt, stability, critical, branch, neutral, run) over the points of
-    CONFIG.toml, resumably.
+    """Run a task (tt, stability, critical, branch, neutral, ellipsoid_map, run) over the
+    points of CONFIG.toml, resumably.
 
     Every completed point is written to the store ([sweep] out) at once; a rerun skips the
     points done. --status and --table read the store and compute nothing.
@@ -70,6 +72,7 @@ def sweep_command(config_path, workers, scheduler, show_status, show_table, as_j
         fail("give --workers (a LocalCluster) or --scheduler, not both")
     if as_csv and not show_table:
         fail("--csv goes with --table")
+    check_scheduler(scheduler)
     try:
         config = read_sweep_config(config_path)
         store = SweepStore.open(config)

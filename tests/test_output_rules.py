@@ -1,0 +1,156 @@
+"""Issue 38: one overwrite/resume rule for the commands that write, what Ctrl-C keeps, a sweep
+point done only when complete, the provenance of a steady state, and run files as xarray users
+expect them.  Expected behaviours come from the README ("An existing output file is not replaced
+without --overwrite") and the issue's list; each test fails if that rule is broken."""
+
+import json
+import sys
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import vesicle as vs
+from vesicle.cli import main
+from vesicle.cli import steady as cli_steady
+from vesicle.steady import NewtonError
+from vesicle.steady_io import read_steady, steady_summary, write_steady
+from vesicle.sweep import TASKS, Task, run_point
+
+TINY = vs.Discretisation(grid=8, degree=2)
+# the modules (``vesicle.branch`` is also the name of a function in the package namespace)
+branch_module = sys.modules["vesicle.branch"]
+critical_module = sys.modules["vesicle.critical"]
+
+
+def run(*args):
+    return CliRunner().invoke(main, list(args))
+
+
+@pytest.fixture(scope="module")
+def tiny_state():
+    """A converged state at N = 2 on 8x16 (about a second)."""
+    return vs.steady_tank_treading(vs.Physics(v=0.95, lam=1.0, chi=1.0), TINY)
+
+
+# ------------------------------------------------------------------ overwrite and resume
+@pytest.mark.parametrize("command", [
+    ("branch", "--lam", "1,2"), ("neutral", "--chi", "1,2"), ("tt",),
+])  # fmt: skip
+def test_an_existing_out_file_is_refused_without_overwrite(tmp_path, command):
+    out = tmp_path / "x.json"
+    out.write_text("{}")
+    r = run(*command, "--degree", "2", "--grid", "8", "--out", str(out))
+    assert r.exit_code != 0 and "exists" in r.output and "--overwrite" in r.output
+    assert out.read_text() == "{}"
+
+
+def test_neutral_refuses_to_mix_a_new_curve_with_old_states(tmp_path):
+    out = tmp_path / "n.json"
+    folder = tmp_path / "n.states"
+    folder.mkdir()
+    (folder / "chi_1.h5").write_text("an earlier curve's state")
+    r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out))
+    assert r.exit_code != 0 and "holds 1 states" in r.output and "--resume" in r.output
+    r = run("neutral", "--chi", "1,2", "--out", str(out), "--resume", "--overwrite")
+    assert r.exit_code != 0 and "give one" in r.output
+
+
+def test_neutral_overwrite_clears_the_old_states_before_tracing(tmp_path, monkeypatch):
+    out = tmp_path / "n.json"
+    out.write_text("{}")
+    folder = tmp_path / "n.states"
+    folder.mkdir()
+    (folder / "chi_1.h5").write_text("old")
+
+    def stop(*args, **kwargs):  # the trace itself is not what is tested
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli_steady, "neutral_curve", stop)
+    r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out),
+            "--overwrite")  # fmt: skip
+    assert not (folder / "chi_1.h5").exists()
+    # Ctrl-C says what was kept and how to go on, not click's bare "Aborted!"
+    assert r.exit_code == 130 and "interrupted" in r.output and "--resume" in r.output
+
+
+def test_branch_states_are_not_replaced_without_overwrite(tmp_path):
+    folder = tmp_path / "st"
+    folder.mkdir()
+    (folder / "lam_2.h5").write_text("kept")
+    r = run("branch", "--lam", "1,2", "--degree", "2", "--grid", "8", "--states", str(folder))
+    assert r.exit_code != 0 and "lam_2.h5" in r.output and "--overwrite" in r.output
+
+
+def test_run_resumed_to_a_time_it_has_passed_is_refused(tmp_path):
+    out = tmp_path / "r.h5"
+    r = run("run", "--grid", "8", "--degree", "2", "--t-end", "0.01", "--no-plot",
+            "--no-progress", "--out", str(out))  # fmt: skip
+    assert r.exit_code == 0, r.output
+    r = run("run", "--resume", str(out), "--t-end", "0.005", "--no-plot", "--no-progress")
+    assert r.exit_code != 0 and "already at t" in r.output
+
+
+# -------------------------------------------------------------------- sweep completeness
+def test_a_branch_that_stopped_short_is_not_a_done_sweep_point(monkeypatch):
+    def stopped_branch(physics, disc, options, settings):
+        return {"points": [], "stopped": "Newton failed past the fold at lam = 7.5"}
+
+    monkeypatch.setitem(TASKS, "branch", Task(stopped_branch, (), (),
+                                              TASKS["branch"].incomplete))  # fmt: skip
+    entry = run_point("branch", vs.Physics().to_dict(), TINY.to_dict(), {}, {})
+    assert entry["status"] == "failed" and "stopped before its last value" in entry["error"]
+    assert entry["result"]["stopped"]  # what it found is kept
+
+
+# -------------------------------------------------------------------- provenance of a start
+def test_a_state_is_stamped_with_its_start_in_json_and_files(tiny_state, tmp_path):
+    assert tiny_state.start == "direct" and not tiny_state.suspect
+    assert steady_summary(tiny_state)["start"] == "direct"
+    again = vs.steady_tank_treading(tiny_state.physics.replace(lam=1.1), TINY,
+                                    initial=tiny_state)  # fmt: skip
+    assert again.start == "initial"
+    path = write_steady(tmp_path / "s.h5", again)
+    assert read_steady(path).steady_result().start == "initial"
+
+
+@pytest.mark.parametrize("lam, chi", [(1.0, 1.0), (2.0, 3.0)])
+def test_reach_flags_a_suspect_state_and_critical_refuses_it(tiny_state, monkeypatch, lam, chi):
+    """Newton from the default start lands on a state with a real unstable mode (faked: the
+    stability analysis reports one) and no easier start works (at lam = chi = 1 there is none;
+    at (2, 3) both fail): reach keeps the state but flags it, and the critical-lambda search
+    refuses to start from it."""
+    target = vs.Physics(v=0.95, lam=lam, chi=chi)
+
+    def newton(physics, disc, *args, initial=None, **kwargs):
+        if physics != target or initial is not None:
+            raise NewtonError("no convergence (faked)")
+        return tiny_state
+
+    class Unstable:
+        most_unstable = (0.0, 0.8)  # a real mode growing: the saddle half of a fold, say
+        omega = np.array([[0.0, 0.8]])
+
+    monkeypatch.setattr(branch_module, "steady_tank_treading", newton)
+    monkeypatch.setattr(branch_module, "stability", lambda *a, **k: Unstable())
+    state = branch_module.reach(target, TINY)
+    assert state.suspect and "real unstable mode" in state.start
+    assert steady_summary(state)["start"].startswith("suspect")
+    with pytest.raises(NewtonError, match="no trustworthy first state"):
+        critical_module._first_state(target, TINY, None, {}, "flow")
+
+
+# --------------------------------------------------------------------------- run files
+def test_run_files_have_flat_parameters_and_l_m_coordinates(tmp_path):
+    out = tmp_path / "r.h5"
+    r = run("run", "--grid", "8", "--degree", "2", "--t-end", "0.01", "--lam", "3",
+            "--no-plot", "--no-progress", "--out", str(out))  # fmt: skip
+    assert r.exit_code == 0, r.output
+    ds = vs.open_run(out)
+    assert ds.attrs["lam"] == 3.0 and ds.attrs["grid"] == 8 and ds.attrs["flow"] == "shear"
+    assert json.loads(ds.attrs["physics"])["lam"] == 3.0  # the object's JSON stays beside
+    assert list(ds["l"].values) == [0, 1, 2] and list(ds["m"].values) == [0, 1, 2]
+    import xarray as xr
+
+    series = xr.open_dataset(out, group="series", engine="h5netcdf")
+    assert series.attrs["lam"] == 3.0 and series.attrs["vesicle_version"] == vs.__version__
