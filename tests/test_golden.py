@@ -43,6 +43,8 @@ class NewAPI:
             vs.Physics(v=0.95, lam=8.0, chi=10.0),
             vs.Discretisation(grid=16, degree=6),
             t_end=0.02, save_every=0.01, dt0=1e-3, dt_max=1e-3, checkpoint_every=1e9,
+            # the recorded run's settings, which were then the defaults
+            integrator="ros2", rtol=1e-4, steady_tol=0.0,
         )  # fmt: skip
         run = simulate(p)
         assert run.checkpoint["steps"] == 20

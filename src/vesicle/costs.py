@@ -100,14 +100,16 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         source="docs/dynamics.md",
     ),
     # The README's quick-start command 1 (the default run: v = 0.95, lam = 1, chi = 1, N = 8 on
-    # 32x64, to t = 1). Remeasure when the default run changes.
+    # 32x64, ROS34PW2 at rtol 1e-3, until settled on TT at t = 2.85). Remeasure when the default
+    # run changes. 103 s without the figures, with a report job on the other core (2026-12-06).
     "run_default": Cost(
         command="vesicle run",
-        figure="1 min 50 s",
-        resolution="the default run: N = 8 on 32x64, v = 0.95, lam = 1, chi = 1, to t = 1",
-        measured="1 min 49 s",
-        when="2026-12-02, on a fresh clone; the install is not included",
-        source="git 6b28129",
+        figure="2 min",
+        resolution="the default run: N = 8 on 32x64, v = 0.95, lam = 1, chi = 1, until it "
+                   "settles on tank-treading (t = 2.85)",
+        measured="103 s (no figures; another job on the other core)",
+        when="2026-12-06; the install is not included",
+        source="issue 38's session (measured with /usr/bin/time)",
     ),
     # The README's quick-start command 2. Not measured in the docs: stated in issue 38 (the
     # suite alone on this 2-core machine; CI's pytest 8 min 27 s for 479 tests, the whole CI

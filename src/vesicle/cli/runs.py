@@ -260,7 +260,8 @@ def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> Non
     "--steady-tol",
     type=float,
     default=_default("steady_tol"),
-    help="Stop once max |dr/dt| falls below this (0: never).",
+    show_default=True,
+    help="Stop once max |dr/dt| falls below this: a settled tank-treading state (0: never).",
 )
 @click.option(
     "--periods",
