@@ -80,9 +80,8 @@ class CoupledBlocks:
         self.shape = shape = solver.shape
         self.lp = solver.lp
         self.workers = solver.lp.workers
-        lam = solver.params.lam
-        self.alpha = 0.5 * (1.0 + lam)
-        self.c = (1.0 - lam) / (8.0 * np.pi)
+        self.formulation = solver.formulation
+        self.alpha, self.c = self.formulation.alpha, self.formulation.c
         self.tension_basis = FullBasis(solver.tension_degree)
         self._band_transform = transform(shape.grid.n_theta, solver.tension_degree)
         self._functions = self.tension_basis.functions(shape.grid)  # (P, nt, np)
@@ -149,7 +148,7 @@ class CoupledBlocks:
 
     def apply_us(self, t: np.ndarray) -> np.ndarray:
         """``A_us`` on tensions (B, nt, np): ``N[f_sigma] / 8 pi``, (B, 3, nt, np)."""
-        return self.single_layer(self.tension_forces(t)) / (8.0 * np.pi)
+        return self.formulation.traction_velocity(self.single_layer(self.tension_forces(t)))
 
 
 class FactorisedSystem(CoupledBlocks):

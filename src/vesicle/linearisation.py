@@ -122,9 +122,7 @@ def linearised_jacobian(
     times["layer_potentials"] = time.perf_counter() - clock
 
     clock = time.perf_counter()
-    dG = (dN + system.single_layer(df)) / (8.0 * np.pi) - du_inf
-    if dK is not None:
-        dG -= (1.0 - params.lam) / (8.0 * np.pi) * dK
+    dG = solver.formulation.shape_derivative(dN + system.single_layer(df), du_inf, dK)
     du, _ = system.solve(-dG, -system.project(ddiv))
     M = drate + np.array([basis.from_coefficients(rate_of_change(shape, v, degree)) for v in du])
     times["solve"] = time.perf_counter() - clock

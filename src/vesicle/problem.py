@@ -23,6 +23,7 @@ from functools import cached_property, partial
 import numpy as np
 
 from .factorised import FactorisedSystem, preconditioned_solve
+from .formulation import Formulation
 from .kinematics import constraint_gradients, rate_of_change
 from .linearisation import linearised_jacobian
 from .parameters import Discretisation, Physics, SolverTolerances
@@ -197,8 +198,8 @@ class SteadyProblem:
         key = self._key(shape)
         kept = self.__dict__.get("_kept_operators")
         if kept is None or kept[0] != key:
-            kernels = ("single",) if self.physics.lam == 1.0 else ("single", "double")
-            lp = LayerPotentials(shape, kernels=kernels, **self.discretisation.operator_options())
+            lp = LayerPotentials(shape, kernels=Formulation.of(self.physics).kernels,
+                                 **self.discretisation.operator_options())  # fmt: skip
             kept = (key, lp)
             object.__setattr__(self, "_kept_operators", kept)
         return kept[1]

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.sparse.linalg import LinearOperator, gmres
 
 from .flows import LinearFlow
+from .formulation import Formulation
 from .membrane import bending_force, tension_force
 from .parameters import Discretisation, Physics, SolverTolerances
 from .rheology import ParticleStress, particle_stress
@@ -149,10 +150,10 @@ class VelocityTensionSolver:
         self.shape = shape
         self.params = params
         self.tol = tolerances or SolverTolerances.time_dependent()
-        kernels = ("single",) if params.lam == 1.0 else ("single", "double")
+        self.formulation = Formulation.of(params)
         if operators is None:
             options = discretisation.operator_options() if discretisation is not None else {}
-            operators = LayerPotentials(shape, kernels=kernels, **options)
+            operators = LayerPotentials(shape, kernels=self.formulation.kernels, **options)
         self.lp = operators
         self.scale = np.sqrt(shape.grid.weights * shape.area_element)
         self.is_sphere = abs(shape.reduced_volume - 1.0) < SPHERE_TOLERANCE
@@ -176,13 +177,12 @@ class VelocityTensionSolver:
         return self._bending
 
     def A_uu(self, u: np.ndarray) -> np.ndarray:
-        lam = self.params.lam
-        if lam == 1.0:
-            return u
-        return 0.5 * (1.0 + lam) * u - (1.0 - lam) / (8.0 * np.pi) * self.lp.double_layer(u)
+        return self.formulation.A_uu(u, self.lp.double_layer)
 
     def A_us(self, sigma: np.ndarray) -> np.ndarray:
-        return self.lp.single_layer(tension_force(self.shape, sigma)) / (8.0 * np.pi)
+        return self.formulation.traction_velocity(
+            self.lp.single_layer(tension_force(self.shape, sigma))
+        )
 
     def A_su(self, u: np.ndarray) -> np.ndarray:
         return self.shape.surface_divergence(u)
@@ -193,7 +193,7 @@ class VelocityTensionSolver:
         if flow and self.params.driven:
             b += self.params.flow.velocity(self.shape.x, self.params.chi)
         if bending:
-            b -= self.lp.single_layer(self.bending_force) / (8.0 * np.pi)
+            b -= self.formulation.traction_velocity(self.lp.single_layer(self.bending_force))
         return b
 
     # ---------------------------------------------------------------- solves
@@ -210,7 +210,7 @@ class VelocityTensionSolver:
             matvec=lambda v: (self.A_uu(v.reshape(shape3) / D) * D).ravel(),
         )
         b = (rhs * D).ravel()
-        x0 = b / (0.5 * (1.0 + lam))
+        x0 = b / self.formulation.alpha
         counter = counter if counter is not None else _Counter()
         start = counter.count
         restart = min(self.tol.restart, self.tol.max_inner)
@@ -305,7 +305,9 @@ class VelocityTensionSolver:
         def schur(v):  # right-preconditioned: v -> S M v
             tv = self._precondition(v.reshape(t_shape))
             f = self._multiplier_force(tv / D)
-            out = self._constraints(inverse(self.lp.single_layer(f) / (8.0 * np.pi))) * D
+            out = self._constraints(
+                inverse(self.formulation.traction_velocity(self.lp.single_layer(f)))
+            ) * D
             if self.is_sphere:
                 self._deflate(tv, out)
             else:  # tension components above the band are not unknowns: identity on them
@@ -344,7 +346,7 @@ class VelocityTensionSolver:
         if not self.is_sphere:
             t = self._band(t)
         force = self._multiplier_force(t)
-        u = inverse(b_u - self.lp.single_layer(force) / (8.0 * np.pi))
+        u = inverse(b_u - self.formulation.traction_velocity(self.lp.single_layer(force)))
         sigma = t[0] if self.is_sphere else t
         return self._result(
             u,
