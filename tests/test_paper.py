@@ -10,7 +10,7 @@ from click.testing import CliRunner
 
 from vesicle.cli import main
 from vesicle.io import read_run
-from vesicle.paper import ITEMS, TABLE1_PAPER, Item, build_report
+from vesicle.paper import ITEMS, PAPER_LABEL, TABLE1_PAPER, Item, build_report
 
 
 def _boom(folder, quick, options):
@@ -49,7 +49,14 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     assert call["concurrent"] and call["items"] == ["table1", "fig2", "broken", "killed"]
     assert "its process ended without a result (exit code -9)" in text
     assert "together on one Dask cluster" in text
-    assert "<th>paper omega_I (32x64)</th>" in text  # Table 1 drawn on the page
+    assert f"<th>ω_I {PAPER_LABEL}, 32×64</th>" in text  # Table 1 drawn on the page
+    # Table 1 at N = 4 on another grid: compared row for row, the grid said
+    t1 = json.loads((tmp_path / "table1" / "item.json").read_text())["comparisons"]
+    n4 = [c for c in t1 if c["quantity"] == "omega_R, N = 4"]
+    assert n4 and n4[0]["compared"] and n4[0]["paper"] == TABLE1_PAPER[4][0]
+    assert "grid differs: 12×24, the paper's 32×64" in n4[0]["note"]
+    # the table of contents and the agreement with the paper come first
+    assert text.index('id="contents"') < text.index('id="agreement"') < text.index('id="table1"')
     rows = (tmp_path / "table1" / "table1.csv").read_text().splitlines()
     assert len(rows) == 1 + 4 and rows[0].startswith("v,lam,chi,N")
     record = tmp_path / "table1" / "item.json"
@@ -168,7 +175,11 @@ def test_period_checks_against_the_hopf_frequency_and_the_fold(tmp_path):
     hopf = store("hopf", [{"lambda_c": 8.72, "omega_R": 2.47, "bifurcation": "hopf"}], "critical")
     comparisons, notes = _period_checks(folder, hopf, 12, 4)
     assert [c["ours"] for c in comparisons[:2]] == [2.39, pytest.approx(0.5, abs=1e-6)]
-    assert comparisons[0]["paper"] == pytest.approx(2 * math.pi / 2.47)
+    # both ours: the reference is named for what it is, never "paper"
+    assert "paper" not in comparisons[0] and comparisons[0]["located"]
+    assert comparisons[0]["reference_value"] == pytest.approx(2 * math.pi / 2.47)
+    assert comparisons[0]["reference"] == "2π/ω_R at our Hopf point"
+    assert comparisons[1]["paper"] == 0.5
     assert "lam = 9" in comparisons[0]["quantity"] and len(comparisons) == 2
     assert notes == ["the fit with lam_c at the fold needs fig8 at the same resolution"]
     (tmp_path / "fig8").mkdir()
@@ -176,4 +187,75 @@ def test_period_checks_against_the_hopf_frequency_and_the_fold(tmp_path):
         {"special_points": [{"type": "saddle-node", "lam": 7.5, "omega_R": 0.0}]}))
     comparisons, notes = _period_checks(folder, hopf, 12, 4)
     assert comparisons[2]["ours"] == pytest.approx(0.5, rel=1e-9) and notes == []
+    assert comparisons[2]["located"]
     assert _period_checks(folder, hopf, 16, 4)[1]  # fig8 at another resolution: not used
+    # the square-root law's estimate of the fold is not taken for the fold
+    (tmp_path / "fig8" / "branch_N4_12.json").write_text(json.dumps(
+        {"special_points": [{"type": "fold", "lam": 7.5, "omega_R": 0.0, "located": False}]}))
+    comparisons, notes = _period_checks(folder, hopf, 12, 4)
+    assert len(comparisons) == 2 and "estimate from the square-root law" in notes[0]
+
+
+def test_only_located_special_points_are_compared():
+    """The type change and lambda_c(chi = 1) of the neutral curves: compared where located, else
+    listed as an estimate, not compared; the resolution said where it is not the paper's."""
+    from vesicle.paper import PAPER_LAMBDA_C_CHI1, _neutral_comparisons
+
+    def curve(v, located, change):
+        return {"v": v, "degree": 4, "grid": 12, "type_change": change,
+                "points": [{"chi": 1.0, "lambda_c": 8.33, "bifurcation": "hopf",
+                            "located": located}]}  # fmt: skip
+
+    estimate = {"chi": 0.27, "lambda_c": 7.6, "bracket": [0.2, 0.36], "located": False}
+    out = _neutral_comparisons([curve(0.95, False, estimate)])
+    change, lam = out
+    assert change["quantity"] == "type change chi (v = 0.95)" and change["paper"] == 0.25
+    assert not change["compared"] and change["located"] is False
+    assert change["note"].startswith("estimate, not compared")
+    assert not lam["compared"] and lam["paper"] == PAPER_LAMBDA_C_CHI1
+    out = _neutral_comparisons([curve(0.95, True, {**estimate, "located": True}),
+                                curve(0.90, True, None)])  # fmt: skip
+    assert [c["compared"] for c in out] == [True, True, False]
+    assert out[0]["located"] and "N = 4 on 12×24" in out[0]["note"]
+    assert out[2]["quantity"] == "type change chi (v = 0.9)" and out[2]["ours"] is None
+    assert _neutral_comparisons([curve(0.95, True, None)], orientation="vorticity") == []
+
+
+def _fake_item(folder, quick, options):
+    """A cheap item: its comparisons (a located and an estimated special point, a check against
+    our own reference) and a file that counts its calls, draw-only ones apart."""
+    from vesicle.paper import _check, _compare
+
+    name = "draws" if options.get("draw_only") else "computes"
+    count = folder / name
+    count.write_text(str(int(count.read_text()) + 1 if count.exists() else 1))
+    return {"figures": [], "tables": [], "parameters": {},
+            "comparisons": [_compare("fold lam", 7.5, 7.49, located=True),
+                            _compare("type change chi", 0.25, 0.3, located=False,
+                                     note="estimate, not compared: bracketed"),
+                            _check("omega_R: the fit", "stability analysis (ours)", 2.9, 2.91)]}
+
+
+def test_page_has_contents_agreement_and_honest_columns(tmp_path):
+    """The page starts with the contents and the agreement table; a "paper" column holds only
+    the paper's values (our own references are headed by what they are); special points carry
+    a located column and an estimate is not compared; --redraw draws the items done again from
+    their data without computing them."""
+    items = [Item("fake", "Figure 9", "a cheap item", _fake_item),
+             Item("absent", "Figure 98", "not computable", None, "on purpose")]  # fmt: skip
+    page = build_report(tmp_path, quick=True, items=items)
+    text = page.read_text()
+    assert text.index('id="contents"') < text.index('id="agreement"') < text.index('id="fake"')
+    assert '<a href="#fake">Figure 9</a>' in text and '<a href="#absent">' in text
+    assert f"<th>{PAPER_LABEL}</th>" in text and "<th>stability analysis (ours)</th>" in text
+    assert "<th>located</th>" in text and "no (estimate)" in text
+    assert text.count("estimate, not compared") >= 2  # in the agreement table and the item's
+    assert "1 compared, 1 not" in text
+    agreement = text[text.index('id="agreement"'):text.index('id="fake"')]
+    assert "omega_R: the fit" not in agreement  # our check is not an agreement with the paper
+    assert (tmp_path / "fake" / "computes").read_text() == "1"
+    build_report(tmp_path, quick=True, items=items)  # a second call: the page only
+    assert not (tmp_path / "fake" / "draws").exists()
+    build_report(tmp_path, quick=True, items=items, redraw=True)
+    assert (tmp_path / "fake" / "draws").read_text() == "1"
+    assert (tmp_path / "fake" / "computes").read_text() == "1"

@@ -47,7 +47,8 @@ def fold_approach(data: dict) -> dict | None:
         return None
     values, growth = [p[name] for p in pts], [p["omega_I"] for p in pts]
     fit = approach_exponent(values, growth, critical)
-    out = {**fit, "type": fold["type"], "parameter": name}
+    located = bool(fold.get("located", True))  # False: the square-root law's estimate
+    out = {**fit, "type": fold["type"], "parameter": name, "located": located}
     if len(pts) >= 3:  # the fold fitted too: independent of its location on the branch
         free = approach_exponent(values, growth)
         out["free"] = {k: free[k] for k in ("exponent", "coefficient", "critical")}
@@ -63,14 +64,16 @@ def plot_branch(data: dict, outdir: str | Path, dpi: int = 120) -> list[Path]:
     x = np.array([p[name] for p in pts])
     stable = np.array([p["n_unstable"] == 0 for p in pts])
     label = {"lam": r"$\lambda$", "chi": r"$\chi$", "v": r"$v$"}[name]
-    fixed = ", ".join(f"{k} = {data.get('physics', {}).get(k):g}" for k in ("v", "lam", "chi")
+    symbol = {"v": "v", "lam": "λ", "chi": "χ"}
+    fixed = ", ".join(f"{symbol[k]} = {data.get('physics', {}).get(k):g}"
+                      for k in ("v", "lam", "chi")
                       if k != name and k in data.get("physics", {}))  # fmt: skip
     title = f"{fixed}; N = {data['degree']} ({data['grid']}×{2 * data['grid']})"
 
     fig = _figure((6.4, 6.4))
     axes = fig.subplots(3, 1, sharex=True)
-    for ax, key, ylabel in zip(axes, ("psi", "D", "S_xz"), (r"$\psi$", "D", r"$S_{xz}$"),
-                               strict=True):  # fmt: skip
+    ylabels = (r"$\psi$ [rad]", "D", r"$S_{xz}$ [$c\,\mu\dot\gamma$]")
+    for ax, key, ylabel in zip(axes, ("psi", "D", "S_xz"), ylabels, strict=True):
         y = np.array([p[key] for p in pts])
         ax.plot(x, y, color="C0", lw=1.2)
         ax.scatter(x[stable], y[stable], color="C0", s=18, zorder=3)
@@ -95,13 +98,15 @@ def plot_branch(data: dict, outdir: str | Path, dpi: int = 120) -> list[Path]:
                    edgecolor="C1", s=14)  # fmt: skip
     ax.axhline(0.0, color="k", lw=0.8)
     for s in data["special_points"]:
-        ax.axvline(s[name], color="C3", ls="--", lw=0.8, label=f"{s['type']} {s[name]:.5g}")
+        estimate = "" if s.get("located", True) else " (estimate, not located)"
+        ax.axvline(s[name], color="C3", ls="--", lw=0.8,
+                   label=f"{s['type']} {s[name]:.5g}{estimate}")  # fmt: skip
     ax.scatter([], [], color="C0", s=14, label=r"real ($\omega_R = 0$)")
     ax.scatter([], [], facecolor="white", edgecolor="C1", s=14, label="complex pair")
     ax.set_xlabel(label)
-    ax.set_ylabel(r"growth rate $\omega_I$")
+    ax.set_ylabel(r"growth rate $\omega_I$ [$\kappa/\mu a^3$]")
     ax.set_title(f"leading eigenvalues along the branch: {title}", fontsize="medium")
-    ax.legend(fontsize="x-small")
+    ax.legend(fontsize="x-small", framealpha=0.8)
     ax.grid(alpha=0.3)
     if approach:
         ax = axes[1]
@@ -119,11 +124,14 @@ def plot_branch(data: dict, outdir: str | Path, dpi: int = 120) -> list[Path]:
                     f"{f['critical']:.6g}")  # fmt: skip
         x0 = approach["range"][1]
         y0 = approach["coefficient"] * x0 ** approach["exponent"]
-        ax.loglog(grid, y0 * np.sqrt(grid / x0), color="k", ls=":", label="exponent 1/2")
+        ax.loglog(grid, y0 * np.sqrt(grid / x0), color="k", ls=":",
+                  label="saddle-node normal form: exponent 1/2")  # fmt: skip
+        where = ("" if approach.get("located", True)
+                 else " (an estimate from the square-root law: not located)")  # fmt: skip
         ax.set_xlabel(f"distance to the {approach['type']} at {label} = "
-                      f"{approach['critical']:.6g}")  # fmt: skip
+                      f"{approach['critical']:.6g}{where}", fontsize="small")  # fmt: skip
         ax.set_ylabel(r"$|\omega_I|$ (leading real mode)")
-        ax.legend(fontsize="x-small")
+        ax.legend(fontsize="x-small", framealpha=0.8)
         ax.grid(alpha=0.3, which="both")
     paths.append(_save(fig, outdir / "branch_omega.png", dpi))
     for p in paths:

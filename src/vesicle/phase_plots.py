@@ -94,13 +94,40 @@ def _style(curve: dict) -> str:
 
 
 def _outside_legend(fig, ax) -> None:
-    """The legend right of the axes (it hid points inside them); the figure's constrained
-    layout narrows the axes to make room."""
-    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize="x-small", borderaxespad=0)
+    """The legend below the axes (it hid points inside them, and right of them its long
+    entries squeezed the axes); the figure's constrained layout makes room."""
+    from .plots import legend_below
+
+    legend_below(fig, *ax.get_legend_handles_labels(), width=70)
+
+
+#: The leading-order lines' legend entry: what they are and why they lie far from the curves.
+THEORY_NOTE = ("leading-order small-deformation theory{what}: valid as v → 1, far from the "
+               "curves at v ≤ 0.95 (finite excess area)")  # fmt: skip
+
+
+def _paper_marks(ax, curves: list[dict], colors: dict, xy) -> None:
+    """What SPEC §14 states of the in-plane curves drawn (labelled "paper (SPEC §14)"):
+    lambda_c = 8.46 at chi = 1, v = 0.95 (a black diamond), and the change of type near chi =
+    0.25 at v = 0.95 and 0.6 at v = 0.90 (a dash-dot line in the curve's colour).  ``xy(v, chi,
+    lam)``: the point in the plot's plane; the lines are vertical (S depends on chi, not lam)."""
+    from .paper import PAPER_LABEL, PAPER_LAMBDA_C_CHI1, PAPER_TYPE_CHANGE
+
+    volumes = {c["v"] for c in curves if c.get("orientation", "flow") != "vorticity"}
+    if 0.95 in volumes:
+        x, y = xy(0.95, 1.0, PAPER_LAMBDA_C_CHI1)
+        ax.scatter([x], [y], marker="D", s=40, facecolor="none", edgecolor="k", lw=1.2, zorder=6,
+                   label=rf"{PAPER_LABEL}: $\lambda_c$ = {PAPER_LAMBDA_C_CHI1} at $\chi$ = 1, "
+                         "v = 0.95")  # fmt: skip
+    for v, chi in sorted(PAPER_TYPE_CHANGE.items(), reverse=True):
+        if v in volumes:
+            ax.axvline(xy(v, chi, 1.0)[0], color=colors[v], ls="-.", lw=1.0,
+                       label=rf"{PAPER_LABEL}: type change near $\chi$ ≈ {chi:g} "
+                             f"(v = {v:g})")  # fmt: skip
 
 
 def _chi_lambda(curves, runs, outdir, dpi) -> Path:
-    fig = _figure((9.0, 4.6))
+    fig = _figure((9.0, 6.4))
     ax = fig.add_subplot()
     colors = _colors(curves)
     for curve in curves:
@@ -119,10 +146,14 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
         if change:
             ax.scatter([change["chi"]], [change["lambda_c"]], marker="*", s=120, color=color,
                        edgecolor="k", zorder=4)  # fmt: skip
+            if change.get("located") is False:  # bracketed, not to its tolerance
+                ax.scatter([change["chi"]], [change["lambda_c"]], marker="x", color="k", s=30,
+                           zorder=5)  # fmt: skip
         theory = misbah_critical_lambda(curve["v"])
         if np.isfinite(theory):
             ax.axhline(theory, color=color, ls=":", lw=1.0)
     _scatter_runs(ax, runs, lambda r: (r["chi"], r["lam"]))
+    _paper_marks(ax, curves, colors, lambda v, chi, lam: (chi, lam))
     ax.set_xscale("log")
     ax.set_xlabel(r"$\chi$ (shear rate)")
     ax.set_ylabel(r"$\lambda_c$")
@@ -132,8 +163,11 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
                label="saddle-node: a real eigenvalue crosses")  # fmt: skip
     if any(c.get("type_change") for c in curves):
         ax.scatter([], [], marker="*", s=120, color="0.3", edgecolor="k", label="change of type")
-    ax.plot([], [], color="0.3", ls=":", lw=1.0, label="leading-order theory")
-    if any(p.get("located") is False for c in curves for p in c["points"]):
+    ax.plot([], [], color="0.3", ls=":", lw=1.0,
+            label=THEORY_NOTE.format(what=r" (Misbah's $\lambda_c$, dotted)"))  # fmt: skip
+    estimates = [p.get("located") is False for c in curves for p in c["points"]]
+    estimates += [(c.get("type_change") or {}).get("located") is False for c in curves]
+    if any(estimates):
         ax.scatter([], [], marker="x", color="k", s=30, label="estimate (not located)")
     _outside_legend(fig, ax)
     ax.set_title("neutral curves: TT stable below", fontsize="medium")
@@ -141,7 +175,7 @@ def _chi_lambda(curves, runs, outdir, dpi) -> Path:
 
 
 def _s_lambda(curves, runs, outdir, dpi) -> Path:
-    fig = _figure((9.0, 4.6))
+    fig = _figure((9.0, 6.4))
     ax = fig.add_subplot()
     colors = _colors(curves)
     for curve in curves:
@@ -154,8 +188,9 @@ def _s_lambda(curves, runs, outdir, dpi) -> Path:
         ax.scatter(sl[~hopf, 0], sl[~hopf, 1], facecolor="white", edgecolor=color, s=28,
                    zorder=3)  # fmt: skip
     _scatter_runs(ax, runs, lambda r: lebedev_parameters(r["v"], r["chi"], r["lam"]))
+    _paper_marks(ax, curves, colors, lebedev_parameters)
     ax.axhline(1.0, color="k", ls="--", lw=1.0,
-               label=r"leading order, strong flow: $\Lambda = 1$ (TT–TU)")  # fmt: skip
+               label=THEORY_NOTE.format(what=r", strong flow: $\Lambda = 1$ (TT–TU)"))  # fmt: skip
     ax.set_xscale("log")
     ax.set_xlabel(r"$S = 7\pi\chi v / (3\sqrt{3}\,\Delta)$")
     ax.set_ylabel(r"$\Lambda = 4\sqrt{\Delta/(30\pi)}\,(1 + 23\lambda/32)$")

@@ -28,6 +28,11 @@ OUT_OF_PLANE_THRESHOLD = 0.05
 #: Points along each cross-section curve.
 SECTION_POINTS = 361
 
+#: Axis labels with their units (SPEC §1: time in mu_out a^3 / kappa; SPEC §11: the specific
+#: stresses S = sigma^p / (c chi), the particle stress in units of c mu_out gamma_dot).
+T_LABEL = r"$t$ [$\mu a^3/\kappa$]"
+STRESS_LABEL = r"specific stress [$c\,\mu\dot\gamma$]"
+
 
 # --------------------------------------------------------------------- helpers
 def _fmt(value: object) -> str:
@@ -65,6 +70,31 @@ def _json_file_with(path: str | Path, keys: set[str]) -> bool:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError):
         return False
     return isinstance(data, dict) and keys <= set(data)
+
+
+def wrap_label(text: str, width: int = 60) -> str:
+    """``text`` broken into lines of about ``width`` characters at spaces outside mathtext
+    (``$...$``), so that a long legend entry keeps the legend narrow."""
+    lines, line, math = [], "", False
+    for word in text.split(" "):
+        if line and not math and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = f"{line} {word}" if line else word
+        if word.count("$") % 2:
+            math = not math
+    return "\n".join([*lines, line])
+
+
+def legend_below(
+    fig: Figure, handles: list, labels: list[str], ncols: int = 2, width: int = 60
+) -> None:
+    """One legend for ``fig`` below its axes (never over the data), its labels wrapped."""
+    if handles:
+        fig.legend(handles, [wrap_label(label, width) for label in labels],
+                   loc="outside lower center", ncols=min(ncols, len(handles)),
+                   fontsize="x-small")  # fmt: skip
 
 
 def _save(fig: Figure, path: Path, dpi: int) -> Path:
@@ -157,7 +187,7 @@ def _plot_psi(run: RunData, path: Path, dpi: int) -> Path:
         for level in (-0.5 * np.pi, 0.0, 0.5 * np.pi):
             ax.axhline(level, color="0.6", lw=0.8, ls="--" if level else ":")
         ax.set_ylim(-0.55 * np.pi, 0.55 * np.pi)
-    ax.set_xlabel("t")
+    ax.set_xlabel(T_LABEL)
     ax.set_ylabel(r"$\psi$ [rad]")
     ax.secondary_yaxis("right", functions=(np.degrees, np.radians)).set_ylabel(r"$\psi$ [deg]")
     ax.set_title(_title(run, "inclination angle"))
@@ -168,8 +198,8 @@ def _plot_deformation(run: RunData, path: Path, dpi: int) -> Path:
     fig = _figure()
     ax = fig.add_subplot()
     ax.plot(_series(run, "t"), _series(run, "D"), color="C1", lw=1.5)
-    ax.set_xlabel("t")
-    ax.set_ylabel("D")
+    ax.set_xlabel(T_LABEL)
+    ax.set_ylabel("deformation D")
     ax.set_title(_title(run, "deformation parameter"))
     return _save(fig, path, dpi)
 
@@ -197,8 +227,8 @@ def _plot_stress(run: RunData, path: Path, dpi: int) -> Path:
         finite = t[np.isfinite(t)]
         if finite.size and finite.min() < finite.max():
             ax.set_xlim(finite.min(), finite.max())
-    ax.set_xlabel("t")
-    ax.set_ylabel("particle stress")
+    ax.set_xlabel(T_LABEL)
+    ax.set_ylabel(STRESS_LABEL)
     ax.set_title(_title(run, "rheology"))
     return _save(fig, path, dpi)
 
@@ -209,7 +239,7 @@ def _plot_orbit(run: RunData, path: Path, dpi: int) -> Path:
     ax = fig.add_subplot()
     ax.plot(psi, D, color="0.75", lw=0.8, zorder=1)
     points = ax.scatter(psi, D, c=t, s=10, cmap="viridis", zorder=2)
-    fig.colorbar(points, ax=ax, label="t")
+    fig.colorbar(points, ax=ax, label=T_LABEL)
     ax.plot(psi[-1:], D[-1:], "o", mfc="none", mec="C3", ms=9, label="final")
     ax.set_xlabel(r"$\psi$ [rad]")
     ax.set_ylabel("D")
@@ -285,7 +315,7 @@ def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
     azimuth = np.unwrap(np.arctan2(a[:, 2], a[:, 0]))
     right.plot(t, polar / np.pi, color="C0", label="angle from y / pi")
     right.plot(t, azimuth / (2.0 * np.pi), color="C3", label="azimuth about y / 2 pi")
-    right.set_xlabel("t")
+    right.set_xlabel(T_LABEL)
     right.grid(alpha=0.3)
     right.legend(loc="best", fontsize="small")
     right.set_title(_title(run, "long axis"), fontsize="medium")
@@ -299,7 +329,7 @@ def _plot_axes_projection(run: RunData, path: Path, dpi: int) -> Path:
         fit = growth.angles[0] * np.exp(growth.rate * (growth.times - growth.times[0]))
         tilt_ax.semilogy(growth.times, fit, "--", color="C3", lw=1.0,
                          label=f"rate {growth.rate:.3g}")  # fmt: skip
-    tilt_ax.set_xlabel("t")
+    tilt_ax.set_xlabel(T_LABEL)
     tilt_ax.set_ylabel("out-of-plane angle of the long axis (rad)")
     tilt_ax.grid(alpha=0.3, which="both")
     tilt_ax.legend(loc="best", fontsize="small")

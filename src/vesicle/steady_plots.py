@@ -34,8 +34,8 @@ def _title(s: SteadyFile, what: str) -> str:
     return f"{what}  (v = {p.v:g}, λ = {p.lam:g}, χ = {p.chi:g}, N = {s.discretisation.degree})"
 
 
-def _plot_eigenvalues(s: SteadyFile, path: Path, dpi: int) -> Path:
-    fig = _figure((5.6, 4.4))
+def _plot_eigenvalues(s: SteadyFile, path: Path, dpi: int, reference: list | None = None) -> Path:
+    fig = _figure((7.6, 4.4))
     ax = fig.add_subplot()
     w_r, w_i = s.omega[:, 0], s.omega[:, 1]
     ax.axhspan(0.0, max(0.05, 1.2 * w_i.max()), color="C3", alpha=0.08, lw=0)
@@ -43,11 +43,15 @@ def _plot_eigenvalues(s: SteadyFile, path: Path, dpi: int) -> Path:
     ax.scatter(w_r, w_i, s=18, color="C0", zorder=3)
     ax.scatter(w_r[:1], w_i[:1], s=60, facecolor="none", edgecolor="C3", zorder=4,
                label=f"most unstable ({abs(w_r[0]):.4g}, {w_i[0]:.4g})")  # fmt: skip
-    ax.set_xlabel(r"$\omega_R$ (frequency)")
-    ax.set_ylabel(r"$\omega_I$ (growth rate)")
+    for ref in reference or []:  # e.g. the paper's mode (SPEC §14), at both signs of omega_R
+        r_r, r_i = ref["omega"]
+        ax.scatter([r_r, -r_r], [r_i, r_i], marker="D", s=40, facecolor="none", edgecolor="k",
+                   lw=1.2, zorder=5, label=ref["label"])  # fmt: skip
+    ax.set_xlabel(r"$\omega_R$ (frequency) [$\kappa/\mu a^3$]")
+    ax.set_ylabel(r"$\omega_I$ (growth rate) [$\kappa/\mu a^3$]")
     ax.set_yscale("symlog", linthresh=0.1)
     ax.grid(alpha=0.3)
-    ax.legend(loc="lower left", fontsize="small")
+    fig.legend(loc="outside lower center", fontsize="small")
     ax.set_title(_title(s, f"{s.stability_basis} spectrum"), fontsize="medium")
     return _save(fig, path, dpi)
 
@@ -69,7 +73,7 @@ def _plot_mode_spectra(s: SteadyFile, path: Path, dpi: int) -> Path:
     ax.set_xlabel("degree l")
     ax.set_ylabel(r"$E_l$")
     ax.grid(alpha=0.3, which="both")
-    ax.legend(loc="upper right", fontsize="small")
+    ax.legend(loc="best", fontsize="small", framealpha=0.8)
     ax.set_title(_title(s, "mode spectra"), fontsize="medium")
     return _save(fig, path, dpi)
 
@@ -105,15 +109,24 @@ def _plot_mode(s: SteadyFile, k: int, path: Path, dpi: int) -> Path:
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper left", fontsize="x-small")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncols=3,
+               fontsize="x-small")  # fmt: skip
     fig.suptitle(_title(s, f"mode {k + 1}: ω = ({abs(w_r):.4g}, {w_i:.4g})"), fontsize="medium")
     return _save(fig, path, dpi)
 
 
 def plot_steady(
-    s: SteadyFile, outdir: str | Path, prefix: str = "", dpi: int = 120, modes: int = 2
+    s: SteadyFile,
+    outdir: str | Path,
+    prefix: str = "",
+    dpi: int = 120,
+    modes: int = 2,
+    reference: list[dict] | None = None,
 ) -> list[Path]:
     """Write the figures of a steady-state file (see the module docstring).
+
+    ``reference``: eigenvalues to draw beside the spectrum, ``{"label", "omega": (omega_R,
+    omega_I)}`` each (the paper's, where it states one).
 
     The eigenvalue and eigenmode figures need a file written with the stability analysis
     (``vesicle tt --stability --out FILE``); without it only ``spectrum_El`` is drawn.
@@ -123,7 +136,8 @@ def plot_steady(
     outdir.mkdir(parents=True, exist_ok=True)
     paths = [_plot_mode_spectra(s, outdir / f"{prefix}spectrum_El.png", dpi)]
     if s.omega is not None:
-        paths.insert(0, _plot_eigenvalues(s, outdir / f"{prefix}spectrum_eigenvalues.png", dpi))
+        paths.insert(0, _plot_eigenvalues(s, outdir / f"{prefix}spectrum_eigenvalues.png", dpi,
+                                          reference))  # fmt: skip
         picked, k = [], 0
         while len(picked) < modes and k < len(s.omega):
             if (

@@ -305,7 +305,8 @@ def axis_label(key: str, unit: bool = True) -> str:
 
 
 #: The leading-order theories' legend entries: what they are and why they depart from the data
-#: (docs/rheology.md: psi and N1 approach them as v -> 1; S_xz - 5/2 and N2 do not).
+#: (docs/reference/rheology.md: psi and N1 approach them as v -> 1; S_xz - 5/2 and N2 do
+#: not).
 THEORY_LABELS = {
     "misbah_psi": "leading-order small-deformation theory, Misbah (3.6) (dotted): the limit "
                   "v → 1, departs at finite excess area",
@@ -332,8 +333,8 @@ def _stability_handles() -> list:
 
 
 def _legend(fig, axes, extra: list | None = None) -> None:
-    """One legend for the figure, right of the axes (it hid data inside them): every
-    labelled artist of ``axes`` once, then ``extra`` handles."""
+    """One legend for the figure, below the axes (inside them it hid data): every labelled
+    artist of ``axes`` once, then ``extra`` handles."""
     handles, labels = [], []
     for ax in axes:
         for h, label in zip(*ax.get_legend_handles_labels(), strict=True):
@@ -344,8 +345,9 @@ def _legend(fig, axes, extra: list | None = None) -> None:
         if h.get_label() not in labels:
             handles.append(h)
             labels.append(h.get_label())
-    if handles:
-        fig.legend(handles, labels, loc="outside right upper", fontsize="x-small")
+    from .plots import legend_below
+
+    legend_below(fig, handles, labels)
 
 
 def _note_handle(text: str):
@@ -379,7 +381,7 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     runs = study.get("figure") == "runs"
     one_panel = runs and len(ys) > 1 and all(is_stress(y) for y in ys)  # one unit: one panel
     panels = 1 if one_panel else len(ys)
-    fig = _figure((8.8, 2.4 * panels + 1.0))
+    fig = _figure((7.6, 2.4 * panels + 2.2))
     axes = np.atleast_1d(fig.subplots(panels, 1, sharex=True))
     extra, regimes = [], set()
     if runs:
@@ -416,7 +418,7 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     d = store_discretisation(store)
     label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
              + (", quick" if study.get("quick") else ""))  # fmt: skip
-    axes[0].set_title(f"{study.get('title', study['name'])}\n({label})", fontsize="small")
+    fig.suptitle(f"{study.get('title', study['name'])}\n({label})", fontsize="small")
     figure = _save(fig, folder / f"{study['name']}.png", 120)
     log.info("wrote %s and %s", figure, table)
     return figure, table
@@ -494,12 +496,19 @@ def _draw_branches(axes, ys, rows, study) -> None:
         for ax, y in zip(axes, ys, strict=True):
             v = np.array([r[y] for r in pts])
             ax.plot(x, v, color=f"C{k}", lw=1.2,
-                    label=f"TT branch, {curve_label(name)}" if y == ys[0] else None)
+                    label=f"TT branch, {curve_label(name)}" if y == ys[0] else None)  # fmt: skip
             ax.scatter(x[stable], v[stable], color=f"C{k}", s=14, zorder=3)
             ax.scatter(x[~stable], v[~stable], facecolor="white", edgecolor=f"C{k}", s=14,
                        zorder=3)  # fmt: skip
         if theory is not None and len(pts) > 1:
             _theory_curve(axes, ys, theory, pts, study, f"C{k}")
+
+
+def _fit_range(lambda_c: float, x: list[float]) -> np.ndarray:
+    """Where a fitted ``(lam - lam_c)^(-p)`` is drawn: from a quarter of the way between lam_c
+    and the first run (not from lam_c, where it diverges and hides the runs) to the last."""
+    lo, hi = min(x), max(x)
+    return np.linspace(lambda_c + 0.25 * (lo - lambda_c), hi, 80)
 
 
 def _draw_period_fit(axes, ys, pts, study, name: str, color: str) -> dict | None:
@@ -511,7 +520,7 @@ def _draw_period_fit(axes, ys, pts, study, name: str, color: str) -> dict | None
     for ax, y in zip(axes, ys, strict=True):
         if y in ("period", "chiT"):
             scale = float(pts[0]["chi"]) if y == "chiT" else 1.0
-            xs = np.linspace(fit["lambda_c"] + 1e-3, max(r[study["x"]] for r in pts), 80)
+            xs = _fit_range(fit["lambda_c"], [r[study["x"]] for r in pts])
             label = (rf"fit ({curve_label(name)}): $p$ = {fit['p']:.3f}, "
                      rf"$\lambda_c$ = {fit['lambda_c']:.4g}")  # fmt: skip
             ax.plot(xs, scale * fit["c"] * (xs - fit["lambda_c"]) ** -fit["p"], color=color,
@@ -561,7 +570,7 @@ def _draw_runs_one_panel(ax, ys, rows, study) -> dict:
     if len(names) > 1:
         for k, name in enumerate(names):
             ax.plot([], [], color="0.3", ls=styles[k % len(styles)], lw=0.8,
-                    label=f"runs: {curve_label(name)}")
+                    label=f"runs: {curve_label(name)}")  # fmt: skip
     elif names:
         ax.plot([], [], ls="", label=f"runs: {curve_label(names[0])}")
     return {}
@@ -635,7 +644,7 @@ def _plot_maps(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path
             c = ax.contourf(lam, psi, np.asarray(m[y]), levels=14, cmap="viridis")
             ax.contour(lam, psi, np.asarray(m[y]), levels=14, colors="k", linewidths=0.3)
             fig.colorbar(c, ax=ax, shrink=0.85).set_label(STRESS_UNIT if is_stress(y) else "",
-                                                          fontsize="x-small")
+                                                          fontsize="x-small")  # fmt: skip
             if trajectory:
                 pts = [r for r in trajectory if abs(r["chi"] - m["chi"]) < 1e-12]
                 ax.plot([r["lam"] for r in pts], [r["psi"] for r in pts], color="w", lw=1.4)
@@ -651,7 +660,8 @@ def _plot_maps(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path
         handles = [Line2D([], [], ls="", marker="*", color="r", ms=9, label="the state mapped")]
         if trajectory:
             handles.insert(0, Line2D([], [], color="w", lw=1.4,
-                                     label=r"TT branch $\psi(\lambda)$ at the state's $\chi$"))
+                                     label=r"TT branch $\psi(\lambda)$ at the state's "
+                                           r"$\chi$"))  # fmt: skip
         fig.legend(handles=handles, loc="outside lower center", ncols=len(handles),
                    fontsize="x-small", facecolor="0.75")  # fmt: skip
     fig.suptitle(study.get("title", study["name"]), fontsize="small")
@@ -732,14 +742,14 @@ def _marks_period_exponent(axes, ys, rows, study, fits) -> list:
         x, t = np.array(pts).T
         lc = fit["lambda_c"]
         c = float(np.exp(np.mean(np.log(t) + p * np.log(x - lc))))
-        xs = np.linspace(lc + 1e-3, x.max(), 80)
+        xs = _fit_range(lc, list(x))
         chi = float(next(r["chi"] for r in rows if r["curve"] == name))
         for ax, y in zip(axes, ys, strict=True):
             if y in ("period", "chiT"):
                 scale = chi if y == "chiT" else 1.0
-                ax.plot(xs, scale * c * (xs - lc) ** -p, **PAPER_STYLE,
-                        label=_paper_label(r"$T \propto (\lambda-\lambda_c)^{-1/2}$ (drawn "
-                                           r"through our runs at our fitted $\lambda_c$)"))
+                label = _paper_label(r"$T \propto (\lambda-\lambda_c)^{-1/2}$ (drawn "
+                                     r"through our runs at our fitted $\lambda_c$)")  # fmt: skip
+                ax.plot(xs, scale * c * (xs - lc) ** -p, **PAPER_STYLE, label=label)
     return [_note_handle(_paper_label(r"$\chi T$ nearly independent of $\chi$"))]
 
 
