@@ -74,7 +74,7 @@ def test_neutral_json_has_the_issue_keys(tmp_path):
     (["--chi", "0.1:10", "--points", "1"], "--points"),
     (["--chi", "1,-2"], "positive"),
     (["--chi", "1,2", "--points", "3"], "range"),
-    (["--chi", "a:b"], "LOW:HIGH"),
+    (["--chi", "a:b"], "'a' is not a number"),
 ])  # fmt: skip
 def test_bad_chi_is_refused(args, message):
     r = CliRunner().invoke(main, ["neutral", *args])

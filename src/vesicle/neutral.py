@@ -141,6 +141,13 @@ class NeutralCurve:
         }
 
 
+def _state_key(state: SteadyResult) -> tuple:
+    """A state by its content (parameters, coordinates and multipliers, bit for bit): the key of
+    the legs already tried from it."""
+    return (state.physics.key, state.discretisation.grid, state.a.tobytes(),
+            tuple(state.multipliers))  # fmt: skip
+
+
 class _Tracer:
     def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor,
                  modes="symmetric", side=1, known=(), checkpoint=None):  # fmt: skip
@@ -156,7 +163,7 @@ class _Tracer:
         self.options = {"jacobian": jacobian, "executor": executor}
         # branch legs of _to that failed, by (id of the start state, parameter, value), with
         # the state and the error: emptied at each new point
-        self._failed_legs: dict[tuple, tuple] = {}
+        self._failed_legs: dict[tuple, NewtonError] = {}
 
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
@@ -176,15 +183,15 @@ class _Tracer:
             except _FAILURES as err:
                 log.info("direct move to %s = %.4g failed (%s): by a branch", parameter, value,
                          err)  # fmt: skip
-        key = (id(start), parameter, float(value))
+        key = (_state_key(start), parameter, float(value))
         if key in self._failed_legs:  # the same leg from the same state: the branch is
             # deterministic, so it fails again (a move tried directly, then by branches)
-            raise self._failed_legs[key][1]
+            raise self._failed_legs[key]
         leg = branch(start.physics, self.disc, parameter, [value], start=start, locate=False,
                      arclength=False, modes=self.modes, **self.options)  # fmt: skip
         if leg.stopped:
             err = NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
-            self._failed_legs[key] = (start, err)  # the state kept, so its id is not reused
+            self._failed_legs[key] = err
             raise err
         return leg.points[-1].steady
 

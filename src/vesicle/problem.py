@@ -50,6 +50,17 @@ PRECONDITIONED_RTOL = 1e-10
 JACOBIAN_STEP = 1e-4
 
 
+class _Kept:
+    """The layer potentials and the factorised system of the last shape a problem solved,
+    each as ``(shape key, object)``: about 0.3 GB each at 32x64, so one shape at most."""
+
+    __slots__ = ("operators", "system")
+
+    def __init__(self) -> None:
+        self.operators: tuple | None = None
+        self.system: tuple | None = None
+
+
 @dataclass(frozen=True)
 class SteadyProblem:
     """The steady-state equations ``adot(a) - mu . grad(A, V) = 0``, ``A = 4 pi``,
@@ -77,6 +88,10 @@ class SteadyProblem:
     modes: str = "symmetric"
     jacobian_method: str = "linearised"
     preconditioned: bool = True
+    #: What is kept of the last shape solved (its layer potentials and factorised system): an
+    #: explicit one-shape cache, not part of the problem's identity, dropped by :meth:`release`
+    kept: _Kept = dataclasses.field(default_factory=lambda: _Kept(), init=False,
+                                    compare=False, repr=False)  # fmt: skip
 
     def __post_init__(self) -> None:
         basis(self.modes, self.discretisation.degree)  # validates the name and the degree
@@ -86,10 +101,10 @@ class SteadyProblem:
             )
 
     def __getstate__(self) -> dict:  # the cached tables and operators are rebuilt where it lands
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.init}
 
     def __setstate__(self, state: dict) -> None:
-        for name, value in state.items():
+        for name, value in {**state, "kept": _Kept()}.items():
             object.__setattr__(self, name, value)
 
     def replace(self, **changes) -> SteadyProblem:
@@ -100,8 +115,7 @@ class SteadyProblem:
         0.3 GB each at 32x64): a finished steady state keeps its problem, and a neutral curve
         keeps hundreds of states (at N = 8 on 32x64 the tracer grew to 22 GB and was killed
         before this was called when Newton returns)."""
-        self.__dict__.pop("_kept_operators", None)
-        self.__dict__.pop("_kept_system", None)
+        self.kept.operators = self.kept.system = None
 
     # ----------------------------------------------------------------- basis
     @cached_property
@@ -132,7 +146,7 @@ class SteadyProblem:
         With ``split`` at the shape of the last linearised Jacobian (a steady state whose
         stability was just analysed) the three solves reuse its factorised system: exact, no
         iterations."""
-        kept = self.__dict__.get("_kept_system")
+        kept = self.kept.system
         if split and kept is not None and kept[0] == self._key(shape):
             system = kept[1]
             parts = {"bending": system.flow_result(True, False),
@@ -161,14 +175,14 @@ class SteadyProblem:
         """The factorised velocity-tension system of ``shape`` (linearised Jacobians), kept as
         the preconditioner of the next solves (:meth:`solve`)."""
         system = FactorisedSystem(self._solver(shape))
-        object.__setattr__(self, "_kept_system", (self._key(shape), system))
+        self.kept.system = (self._key(shape), system)
         return system
 
     def wants_preconditioner(self, shape: Shape) -> bool:
         """Whether solves of shapes near ``shape`` would be preconditioned but no system is
         kept yet (a continuation step's first iterate: the neighbour's system is gone)."""
         return (self.preconditioned and self.jacobian_method == "linearised"
-                and "_kept_system" not in self.__dict__
+                and self.kept.system is None
                 and abs(shape.reduced_volume - 1.0) >= SPHERE_TOLERANCE)  # fmt: skip
 
     def _preconditioned(self, shape: Shape, system: FactorisedSystem) -> FlowResult | None:
@@ -196,12 +210,11 @@ class SteadyProblem:
         if self.jacobian_method != "linearised":
             return None
         key = self._key(shape)
-        kept = self.__dict__.get("_kept_operators")
+        kept = self.kept.operators
         if kept is None or kept[0] != key:
             lp = LayerPotentials(shape, kernels=Formulation.of(self.physics).kernels,
                                  **self.discretisation.operator_options())  # fmt: skip
-            kept = (key, lp)
-            object.__setattr__(self, "_kept_operators", kept)
+            kept = self.kept.operators = (key, lp)
         return kept[1]
 
     def adot(self, a: np.ndarray, sigma0=None) -> tuple[np.ndarray, FlowResult]:
