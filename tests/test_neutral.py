@@ -173,7 +173,7 @@ def test_phase_diagrams_with_classified_runs(tmp_path):
                                  "type_change": None}))  # fmt: skip
     store = tmp_path / "runs.h5"
     _run_store(store, [(0.95, 1.0, 7.0, "TT"), (0.95, 6.0, 9.5, "TR"), (0.95, 1.0, 12.0, "TU")])
-    from vesicle.phase_plots import runs_from_store
+    from vesicle.sweep import runs_from_store
 
     runs = runs_from_store(store)
     assert sorted(r["regime"] for r in runs) == ["TR", "TT", "TU"]

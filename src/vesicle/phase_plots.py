@@ -23,9 +23,10 @@ from pathlib import Path
 import numpy as np
 
 from .plots import _figure, _json_file_with, _save
+from .published import PAPER_LABEL, PAPER_LAMBDA_C_CHI1, PAPER_TYPE_CHANGE
 from .theory import lebedev_parameters, misbah_critical_lambda
 
-__all__ = ["REGIME_STYLE", "is_neutral_file", "plot_neutral", "runs_from_store"]
+__all__ = ["REGIME_STYLE", "is_neutral_file", "plot_neutral"]
 
 #: Marker and colour of each regime of a run.
 REGIME_STYLE = {"TT": ("o", "tab:green"), "TR": ("^", "tab:orange"), "TU": ("s", "tab:red")}
@@ -36,19 +37,6 @@ logger = logging.getLogger(__name__)
 def is_neutral_file(path: str | Path) -> bool:
     """Whether ``path`` is the JSON of a neutral curve."""
     return _json_file_with(path, {"points", "type_change", "v"})
-
-
-def runs_from_store(path: str | Path) -> list[dict]:
-    """The finished points of a ``task = "run"`` sweep store as ``{"v", "chi", "lam",
-    "regime", "period"}`` (points whose analysis found no regime are kept as "undetermined")."""
-    from .sweep import SweepStore  # the sweep engine only where runs are drawn
-
-    store = SweepStore.read(path)
-    if store.task != "run":
-        raise ValueError(f"{path} is a {store.task!r} sweep; --runs takes a sweep of runs")
-    return [{"v": r["v"], "chi": r["chi"], "lam": r["lam"],
-             "regime": r.get("regime") or "undetermined", "period": r.get("period")}
-            for r in store.rows() if r["status"] == "done"]  # fmt: skip
 
 
 def _scatter_runs(ax, runs: list[dict], xy) -> None:
@@ -66,7 +54,7 @@ def plot_neutral(
     curves: list[dict], outdir: str | Path, dpi: int = 120, runs: list[dict] | None = None
 ) -> list[Path]:
     """Draw the phase diagrams of the neutral-curve dictionaries ``curves`` (and the classified
-    ``runs``, see :func:`runs_from_store`) into ``outdir``."""
+    ``runs``, see :func:`vesicle.sweep.runs_from_store`) into ``outdir``."""
     outdir = Path(outdir)
     outdir.mkdir(parents=True, exist_ok=True)
     runs = runs or []
@@ -111,7 +99,6 @@ def _paper_marks(ax, curves: list[dict], colors: dict, xy) -> None:
     lambda_c = 8.46 at chi = 1, v = 0.95 (a black diamond), and the change of type near chi =
     0.25 at v = 0.95 and 0.6 at v = 0.90 (a dash-dot line in the curve's colour).  ``xy(v, chi,
     lam)``: the point in the plot's plane; the lines are vertical (S depends on chi, not lam)."""
-    from .paper import PAPER_LABEL, PAPER_LAMBDA_C_CHI1, PAPER_TYPE_CHANGE
 
     volumes = {c["v"] for c in curves if c.get("orientation", "flow") != "vorticity"}
     if 0.95 in volumes:

@@ -43,6 +43,7 @@ import numpy as np
 
 from .config import ConfigError
 from .costs import study_cost
+from .published import PAPER_LABEL, PAPER_LAMBDA_C_CHI1, PAPER_PERIOD_EXPONENT
 from .sweep import SweepConfig, SweepStore, read_sweep_config, run_sweeps
 from .theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
 
@@ -709,14 +710,12 @@ PAPER_STYLE = {"color": "k", "ls": "-.", "lw": 1.0}
 
 
 def _paper_label(text: str) -> str:
-    from .paper import PAPER_LABEL
 
     return f"{PAPER_LABEL}: {text}"
 
 
 def _marks_lambda_c(axes, ys, rows, study, fits) -> list:
     """Figure 5 (v = 0.95, chi = 1): lambda_c = 8.46, and psi negative before it."""
-    from .paper import PAPER_LAMBDA_C_CHI1
 
     if not any(r["v"] == 0.95 and r["chi"] == 1.0 for r in rows):
         return []
@@ -734,7 +733,7 @@ def _marks_lambda_c(axes, ys, rows, study, fits) -> list:
 def _marks_period_exponent(axes, ys, rows, study, fits) -> list:
     """Figure 12 (chi = 0.2): T ~ (lam - lam_c)^(-1/2), drawn through our runs at our fitted
     lam_c (the paper gives the exponent, not the constant)."""
-    from .paper import PAPER_PERIOD_EXPONENT as p
+    p = PAPER_PERIOD_EXPONENT
 
     for name, fit in fits.items():
         pts = [(r[study["x"]], r["period"]) for r in rows if r["curve"] == name

@@ -89,6 +89,7 @@ __all__ = [
     "read_sweep_config",
     "run_sweep",
     "run_sweeps",
+    "runs_from_store",
     "task_key",
 ]
 
@@ -730,3 +731,14 @@ def run_sweeps(
         if cluster is not None:
             close_cluster(cluster)
     return stores
+
+
+def runs_from_store(path: str | Path) -> list[dict]:
+    """The finished points of a ``task = "run"`` sweep store as ``{"v", "chi", "lam",
+    "regime", "period"}`` (points whose analysis found no regime are kept as "undetermined")."""
+    store = SweepStore.read(path)
+    if store.task != "run":
+        raise ValueError(f"{path} is a {store.task!r} sweep; --runs takes a sweep of runs")
+    return [{"v": r["v"], "chi": r["chi"], "lam": r["lam"],
+             "regime": r.get("regime") or "undetermined", "period": r.get("period")}
+            for r in store.rows() if r["status"] == "done"]  # fmt: skip

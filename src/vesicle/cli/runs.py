@@ -18,7 +18,7 @@ from ..config import read_config, solver_from, to_toml
 from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
 from ..io import SERIES, RunData, read_run, write_text_atomically
 from ..parameters import SolverTolerances
-from ..phase_plots import is_neutral_file, plot_neutral, runs_from_store
+from ..phase_plots import is_neutral_file, plot_neutral
 from ..plots import plot_run
 from ..simulation import SimulationError, load_parameters, simulate
 from ..solver import SolverError
@@ -27,7 +27,7 @@ from ..steady_io import is_steady_file, read_steady
 from ..steady_plots import plot_steady
 from ..study import plot_study, study_of_store
 from ..surface import ShapeError
-from ..sweep import SweepStore, is_sweep_store
+from ..sweep import SweepStore, is_sweep_store, runs_from_store
 from ..vtk import export_vtk
 from .base import check_output, command_line, fail, main, with_version
 from .options import (
