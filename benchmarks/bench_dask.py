@@ -1,8 +1,8 @@
 """Dask: finite-difference Jacobian columns and sweep points on a LocalCluster of 1 and 2 workers.
 
 Same inputs, same run: the serial path, then a ``LocalCluster`` (one-thread worker processes) of
-1 and 2 workers through the same code (``vesicle.parallel.executor``, ``vesicle.sweep``).  The
-workers assemble on one ring thread each (``VESICLE_THREADS=1``, set by
+1 and 2 workers through the same code (``vesicle.parallel.executor``, ``vesicle.workflows.sweep``).
+ The workers assemble on one ring thread each (``VESICLE_THREADS=1``, set by
 ``vesicle.parallel.local_cluster``); "2 ring threads each" is the reference it replaced.
 Reported: wall times and the speed-up over serial (the cluster's start-up is included for the
 sweep, as a user pays it; not for the Jacobian, timed twice on a running cluster: the first
@@ -19,8 +19,8 @@ import numpy as np
 
 import vesicle as vs
 from vesicle.parallel import executor
-from vesicle.steady import NEWTON_TOLERANCES, initial_guess
-from vesicle.sweep import TASKS, read_sweep_config, run_sweep
+from vesicle.steady.newton import NEWTON_TOLERANCES, initial_guess
+from vesicle.workflows.sweep import TASKS, read_sweep_config, run_sweep
 
 #: Points whose default start converges directly (at lam = 3.5 and 4, chi = 1 on 16x32, Newton
 #: diverges or lands on a state with a real unstable mode and `reach` continues from lam = 1:

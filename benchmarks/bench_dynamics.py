@@ -8,8 +8,8 @@ import time
 
 import numpy as np
 
-from vesicle.dynamics import RunParameters
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
 from vesicle.stokes import singular_quadrature
 
 #: Where the time goes: (label, module path suffix, function name) of cumulative profile entries.

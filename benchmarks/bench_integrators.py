@@ -21,8 +21,8 @@ from __future__ import annotations
 import os
 import time
 
-from vesicle.dynamics import RunParameters
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
 from vesicle.stokes import singular_quadrature
 
 #: Agreement of psi(t_end) with the reference asked of each integrator.

@@ -1,10 +1,11 @@
 """The dominant kernels against this machine's one-thread DGEMM rate, measured in the same run.
 
-Issue 12's target 4. Which kernels dominate (docs/steady.md, docs/dynamics.md): in time stepping
-the layer-potential assembly (its BLAS core is the pull-back: a phi' DFT product, then Legendre
-and Wigner products per ring) and GMRES; in the steady solve with its stability, the
-factorisation of the velocity-tension system (``vesicle.factorised``: the batched spherical-
-harmonic analysis of ``M^-1 K_c``'s columns and the LU factorisation of ``C``).
+Issue 12's target 4. Which kernels dominate (docs/notes/steady-measurements.md,
+docs/notes/dynamics-measurements.md): in time stepping the layer-potential assembly (its BLAS core
+is the pull-back: a phi' DFT product, then Legendre and Wigner products per ring) and GMRES; in the
+steady solve with its stability, the factorisation of the velocity-tension system
+(``vesicle.solve.factorised``: the batched spherical-harmonic analysis of ``M^-1 K_c``'s columns
+and the LU factorisation of ``C``).
 
 Each kernel reports its wall time, the floating-point operations it does (counted from the
 shapes of its products; the FFT's are not counted) and that count over the time as a fraction of
@@ -25,8 +26,8 @@ from threadpoolctl import threadpool_limits
 
 import vesicle as vs
 from bench_layer_potentials import _pull_back_rate
-from vesicle.factorised import FactorisedSystem
-from vesicle.solver import VelocityTensionSolver
+from vesicle.solve.factorised import FactorisedSystem
+from vesicle.solve.solver import VelocityTensionSolver
 from vesicle.sphere.transforms import transform
 from vesicle.stokes import singular_quadrature
 

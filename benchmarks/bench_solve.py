@@ -7,7 +7,7 @@ import time
 import numpy as np
 
 import vesicle as vs
-from vesicle.solver import solve_flow
+from vesicle.solve.solver import solve_flow
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.stokes import LayerPotentials, singular_quadrature
 

@@ -6,10 +6,11 @@ Paths timed in the same run, on the same inputs:
   one every Newton step (``jacobian="differences", updates="none"``): the method before issue 12;
 - ``broyden``: the same Jacobians reused with Broyden updates (``jacobian="differences"``);
 - ``broyden_2_workers``: that, with the columns on 2 processes;
-- ``linearised_nested``: the solve differentiated (:mod:`vesicle.linearisation`), every solve by
+- ``linearised_nested``: the solve differentiated (:mod:`vesicle.solve.linearisation`), every solve
+by
   the nested GMRES (the default before the preconditioned solves);
 - ``linearised``: the default (that, with the solves after a Jacobian preconditioned by its
-  factorised system, :func:`vesicle.factorised.preconditioned_solve`).
+  factorised system, :func:`vesicle.solve.factorised.preconditioned_solve`).
 
 Cases: N = 4 on 16x32 and N = 6 on 24x48; ``VESICLE_BENCH_FULL=1`` adds the paper's N = 8 on
 32x64 (about 13 min) and, there, one continuation step (lam 7 -> 7.3 at chi = 1, with its stability)
@@ -30,8 +31,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 
 import vesicle as vs
-import vesicle.problem as problem_module
-from vesicle.branch import reach
+import vesicle.steady.problem as problem_module
+from vesicle.bifurcation.branch import reach
 
 PATHS = {
     "reference": dict(jacobian="differences", updates="none", constraints="first-order"),

@@ -17,8 +17,8 @@ def _stand_in(state, calls, fail_above=None):
     checkpoint writes and a resume reads back)."""
     import dataclasses
 
-    from vesicle.neutral import NeutralPoint
-    from vesicle.steady import NewtonError
+    from vesicle.bifurcation.neutral import NeutralPoint
+    from vesicle.steady.newton import NewtonError
 
     def point(self, start, chi, lam_pred, fallbacks=()):
         if chi in self.known:
@@ -42,5 +42,5 @@ def _stand_in(state, calls, fail_above=None):
 @pytest.fixture
 def stand_in():
     """``stand_in(state, calls, fail_above=None)``: a replacement for
-    ``vesicle.neutral._Tracer.point`` (see :func:`_stand_in`)."""
+    ``vesicle.bifurcation.neutral._Tracer.point`` (see :func:`_stand_in`)."""
     return _stand_in

@@ -49,15 +49,15 @@ class OldAPI:
     """Calls of the code before the parameter objects (dac684e)."""
 
     def table1_n4(self):
-        from vesicle.stability import stability
-        from vesicle.steady import steady_tank_treading
+        from vesicle.steady.newton import steady_tank_treading
+        from vesicle.steady.stability import stability
 
         r = steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
         return stability(r).omega
 
     def twenty_steps(self):
-        from vesicle.dynamics import RunParameters
-        from vesicle.simulation import simulate
+        from vesicle.dynamics.integrators import RunParameters
+        from vesicle.dynamics.simulation import simulate
 
         p = RunParameters(v=0.95, lam=8.0, chi=10.0, grid=16, degree=6, t_end=0.02,
                           save_every=0.01, dt0=1e-3, dt_max=1e-3, checkpoint_every=1e9)  # fmt: skip
@@ -88,7 +88,7 @@ class OldAPI:
         return values
 
     def spectra(self):
-        from vesicle.solver import schur_symbol, sphere_relaxation_rates
+        from vesicle.solve.solver import schur_symbol, sphere_relaxation_rates
 
         return [*schur_symbol(10, 8.0), *sphere_relaxation_rates(10, 8.0, 0.3)]
 

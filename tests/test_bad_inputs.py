@@ -13,9 +13,10 @@ than its parsing.  Every case runs in-process (click's ``CliRunner``, ``catch_ex
 so that a traceback surfaces as the test's error) under a 60 s alarm.
 
 Where the expected behaviour comes from: the option's ``--help`` text, the parameter objects'
-docstrings (``vesicle.Physics``, ``vesicle.Discretisation``, ``vesicle.dynamics.RUN_DEFAULTS``),
+docstrings (``vesicle.Physics``, ``vesicle.Discretisation``,
+``vesicle.dynamics.integrators.RUN_DEFAULTS``),
 README.md ("An existing output file is not replaced without --overwrite; a missing or read-only
-output folder is refused before any work") and docs/sweeps.md ("Everything is checked before
+output folder is refused before any work") and docs/howto/sweeps.md ("Everything is checked before
 any work").
 """
 
@@ -43,12 +44,12 @@ class WorkStarted(Exception):
 def make_inputs(folder: Path) -> dict[str, str]:
     """Files the cases read, in ``folder``: a tiny run file and steady-state file (N = 2 on
     8 x 16, a second each), a sweep store without points, and files of the wrong kind."""
-    from vesicle.dynamics import RunParameters
-    from vesicle.parameters import Discretisation, Physics
-    from vesicle.simulation import simulate
-    from vesicle.steady import steady_tank_treading
-    from vesicle.steady_io import write_steady
-    from vesicle.sweep import SweepStore
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.model.parameters import Discretisation, Physics
+    from vesicle.steady.files import write_steady
+    from vesicle.steady.newton import steady_tank_treading
+    from vesicle.workflows.sweep import SweepStore
 
     simulate(RunParameters(grid=8, degree=2, t_end=0.01, save_every=0.005), out=folder / "run.h5")
     write_steady(folder / "tt.h5", steady_tank_treading(Physics(), Discretisation(8, 2)), None)
@@ -66,10 +67,10 @@ def make_inputs(folder: Path) -> dict[str, str]:
 
 def stub_work(monkeypatch) -> None:
     """Replace the entry points of real work by :class:`WorkStarted` (see the module doc)."""
-    import vesicle.paper
+    import vesicle.dynamics.simulation
     import vesicle.parallel
-    import vesicle.simulation
-    import vesicle.solver
+    import vesicle.solve.solver
+    import vesicle.workflows.paper
     from vesicle.stokes.operators import LayerPotentials
 
     def stub(what):
@@ -80,8 +81,8 @@ def stub_work(monkeypatch) -> None:
 
     monkeypatch.setattr(LayerPotentials, "__init__", stub("layer potentials"))
     originals = {
-        "solve_flow": vesicle.solver.solve_flow,
-        "simulate": vesicle.simulation.simulate,
+        "solve_flow": vesicle.solve.solver.solve_flow,
+        "simulate": vesicle.dynamics.simulation.simulate,
         "local_cluster": vesicle.parallel.local_cluster,
     }
     for module in [m for name, m in sys.modules.items() if name.startswith("vesicle")]:
@@ -89,7 +90,7 @@ def stub_work(monkeypatch) -> None:
             if getattr(module, name, None) is original:
                 monkeypatch.setattr(module, name, stub(name))
     for name in ("_compute_item", "_compute_concurrently"):
-        monkeypatch.setattr(vesicle.paper, name, stub(f"paper item ({name})"))
+        monkeypatch.setattr(vesicle.workflows.paper, name, stub(f"paper item ({name})"))
 
 
 @pytest.fixture(scope="module")
@@ -298,7 +299,7 @@ REFUSED = [
     bad("neutral --chi 1 --xtol 0", r"xtol"),  # --help: "Absolute tolerance"
     bad("neutral --chi 1 --type-tol 0", r"type.tol"),  # --help: "Relative width in chi"
     bad("neutral --chi 1 --out {json}", r"exists.*--overwrite|--resume"),
-    # --- vesicle sweep CONFIG.toml (docs/sweeps.md: everything checked before any work)
+    # --- vesicle sweep CONFIG.toml (docs/howto/sweeps.md: everything checked before any work)
     bad("sweep missing.toml", r"no sweep configuration"),
     bad("sweep {toml}", r"not valid TOML"),
     bad("sweep {run}", r"not valid TOML"),
@@ -464,7 +465,7 @@ DOCUMENTED = [
     ok("study tt-shape-lambda --quick"),  # README: vesicle study NAME --quick
     ok("sweep s.toml --workers 1", sweep("[grid]\nlam = [1.0, 2.0]\n" + SMALL),
        id="sweep tt"),
-    # docs/sweeps.md: "[grid] lists (or single values)"
+    # docs/howto/sweeps.md: "[grid] lists (or single values)"
     ok("sweep s.toml", sweep("[grid]\nlam = 2.0\n" + SMALL), id="sweep single value"),
 ]
 # fmt: on

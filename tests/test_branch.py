@@ -10,7 +10,7 @@ import pytest
 from click.testing import CliRunner
 
 import vesicle as vs
-from vesicle.branch import branch
+from vesicle.bifurcation.branch import branch
 from vesicle.cli import main
 
 
@@ -73,7 +73,7 @@ def test_branch_command_json(tmp_path):
 def test_fold_estimate_follows_the_square_root_law():
     """Near a saddle-node the real leading eigenvalue goes like -sqrt(c (lam_f - lam)) (SPEC §16):
     the estimate from the last three points of a model branch is lam_f."""
-    from vesicle.branch import _fold_estimate, _Tracer
+    from vesicle.bifurcation.branch import _fold_estimate, _Tracer
 
     tracer = _Tracer(vs.Physics(chi=0.2), vs.Discretisation(16, 4), "lam", None, None, 4)
     for lam in (5.0, 5.5, 5.8):
@@ -94,7 +94,7 @@ def test_a_hard_start_is_reached_by_continuation():
     the low-shear fold, SPEC §16); `reach` continues from chi = 1 instead.  The state must be the
     one a branch in lam from lam = 2 (where Newton converges) arrives at: psi 0.20678,
     omega_I -0.0941 (measured both ways, 2026-12-01; 53 s and ~90 s)."""
-    from vesicle.branch import reach
+    from vesicle.bifurcation.branch import reach
 
     p, d = vs.Physics(v=0.95, lam=6.0, chi=0.2), vs.Discretisation(16, 4)
     with pytest.raises((vs.NewtonError, vs.ShapeError, vs.SolverError)):
@@ -113,7 +113,7 @@ def test_a_state_with_several_unstable_modes_is_checked_by_continuation():
     (lambda_c(chi = 10) = 8.79 at this resolution, the quick report's neutral curve), and psi
     falls with lam (0.5626 at lam = 1 and 0.4854 at lam = 2 on the chi = 10 branch of the same
     report), so `reach` must return a stable state with 0 < psi < 0.4854."""
-    from vesicle.branch import reach
+    from vesicle.bifurcation.branch import reach
 
     p, d = vs.Physics(v=0.95, lam=4.0, chi=10.0), vs.Discretisation(16, 4)
     trap = vs.stability(vs.steady_tank_treading(p, d))
@@ -141,7 +141,7 @@ def test_pseudo_arclength_locates_the_low_shear_fold():
 def test_approach_exponent_recovers_known_power_laws():
     """Synthetic growth rates with exact power laws (the square root of a saddle-node, a linear
     crossing): the fit returns their exponents and coefficients."""
-    from vesicle.branch import approach_exponent
+    from vesicle.bifurcation.branch import approach_exponent
 
     lam = np.linspace(6.0, 7.49, 12)
     fit = approach_exponent(lam, -0.8 * np.sqrt(7.5 - lam), 7.5)
@@ -158,7 +158,7 @@ def test_approach_exponent_recovers_known_power_laws():
 def test_branch_figures_with_the_fold_approach(tmp_path):
     """`vesicle plot branch.json`: branch_shape.png and branch_omega.png; the fold approach of a
     synthetic branch whose leading real eigenvalue is -0.5 sqrt(7.5 - lam) has exponent 1/2."""
-    from vesicle.branch_plots import fold_approach
+    from vesicle.plots.branch import fold_approach
 
     pts = []
     for lam in np.linspace(7.0, 7.49, 8):
@@ -188,7 +188,7 @@ def test_the_fold_is_the_zero_of_the_curvature_form_of_the_stability_operator():
     the fold's defining property, SPEC §16): its leading growth rate changes sign across the
     fold; SPEC §9's Q^T M Q has crossed zero already, near lam = 4.074 (reported as the
     branch's first saddle-node), and is 0.04-0.05 at the fold."""
-    from vesicle.stability import stability
+    from vesicle.steady.stability import stability
 
     p, d = vs.Physics(v=0.85, chi=1.0), vs.Discretisation(16, 4)
     b = branch(p, d, "lam", [3.9, 4.0, 4.05, 4.07, 4.09, 4.1], past_fold=3)
@@ -210,8 +210,8 @@ def test_the_tangent_predictor_of_a_lone_start_is_second_order(hopf_branch):
     it by about 4 (the states at lam = 8.0 and 8.2 from the fixture, 8.1 solved here; all
     converged to residual 1e-8, far below the errors compared).  A wrong sign or a wrong dG/dlam
     would make the error O(h), a ratio near 2."""
-    from vesicle.branch import _analyse, _Tracer
-    from vesicle.steady import steady_tank_treading
+    from vesicle.bifurcation.branch import _analyse, _Tracer
+    from vesicle.steady.newton import steady_tank_treading
 
     p0, p2 = (next(p for p in hopf_branch.points if p.physics.lam == x) for x in (8.0, 8.2))
     tracer = _Tracer(p0.physics, hopf_branch.discretisation, "lam", None, None, 4)
@@ -229,7 +229,7 @@ def test_a_failed_step_is_not_halved_below_a_quarter_of_xtol(monkeypatch):
     continuation in steps of 0.004 from 7.59 halves failed steps down to xtol/4 = 2.5e-4, no
     further, and stops there, the fold between the last state and the first failed value; before
     the floor it crept on in steps of 1e-5 (v = 0.95, chi = 0.2594, N = 8, 4 min a failure)."""
-    vb = importlib.import_module("vesicle.branch")
+    vb = importlib.import_module("vesicle.bifurcation.branch")
 
     fold, tried = 7.6002, []
 
@@ -267,7 +267,7 @@ def _model_fold_tracer(monkeypatch, omega_R: float):
     """A model branch with a fold at lam = 7.6002 (the corrector fails beyond it) whose leading
     eigenvalue is ``omega_R + i omega_I`` with omega_I = -sqrt(fold - lam) (the saddle-node law,
     SPEC §16) or, with omega_R != 0, a complex pair."""
-    vb = importlib.import_module("vesicle.branch")
+    vb = importlib.import_module("vesicle.bifurcation.branch")
     fold, tried = 7.6002, []
 
     def point(value):

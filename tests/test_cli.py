@@ -295,8 +295,8 @@ def test_critical_at_low_resolution_against_an_independent_fine_bracket():
     """``vesicle critical`` at N = 4 on 16 x 32 (lambda_c = 8.3371, Hopf, omega_R = 0.387); then
     fresh Newton solves from the default start (not the search's continuation) 0.3 % either side
     must have growth rates of opposite signs."""
-    from vesicle.stability import stability
-    from vesicle.steady import steady_tank_treading
+    from vesicle.steady.newton import steady_tank_treading
+    from vesicle.steady.stability import stability
 
     args = ("--degree", "4", "--grid", "16", "--lam0", "8", "--step", "0.02", "--xtol", "1e-3")
     r = run("critical", "--v", "0.95", "--chi", "1", *args, "--json")

@@ -11,10 +11,10 @@ from hypothesis import strategies as st
 
 import vesicle as vs
 from vesicle.cli import main
-from vesicle.config import SECTIONS, ConfigError, read_config, to_toml
-from vesicle.dynamics import RunParameters
-from vesicle.io import read_run
-from vesicle.simulation import load_parameters, simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import load_parameters, simulate
+from vesicle.io.files import read_run
+from vesicle.workflows.config import SECTIONS, ConfigError, read_config, to_toml
 
 
 def cli(*args):

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from vesicle.continuation import ArclengthPoint, arclength_step, corrector, tangent
+from vesicle.bifurcation.continuation import ArclengthPoint, arclength_step, corrector, tangent
 
 
 def _circle(y, p):  # G = y0^2 + y1^2/4 + p^2 - 1: folds in p at p = +-1 (y = 0)

@@ -1,4 +1,5 @@
-"""The measured costs are quoted from one table (``vesicle.costs``; issue 38): the README, the
+"""The measured costs are quoted from one table (``vesicle.workflows.costs``; issue 38): the
+README, the
 docs and the help texts say exactly what it says, and it says what its sources measured."""
 
 from __future__ import annotations
@@ -11,8 +12,8 @@ import pytest
 from click.testing import CliRunner
 
 from vesicle.cli import main
-from vesicle.costs import COSTS, STUDY_COSTS, study_cost
-from vesicle.study import list_studies, load_study
+from vesicle.workflows.costs import COSTS, STUDY_COSTS, study_cost
+from vesicle.workflows.study import list_studies, load_study
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -47,7 +48,22 @@ QUOTES = [
     ("README.md", "neutral_13", r"and (\S+ min) for 13 χ"),
     ("README.md", "neutral_n8", r"other core busy\), (1\.6.*? at the folds)"),
     ("docs/paper.md", "paper_quick", r"fewer points \(about (\d+ min)\)"),
-    ("docs/steady.md", "tt_stability", r"`vesicle tt --stability` there takes (\S+ s)"),
+    ("docs/notes/steady-measurements.md", "tt_stability",
+     r"`vesicle tt --stability` there takes (\S+ s)"),
+    ("docs/howto/steady-states.md", "tt_stability", r"`vesicle tt --stability` (\S+ s);"),
+    ("docs/howto/steady-states.md", "critical",
+     r"`vesicle critical --v 0\.95 --chi 1` (\S+ s) from its default"),
+    ("docs/howto/steady-states.md", "critical_no_coarse", r"`--no-coarse` ([\d.]+ min)"),
+    ("docs/howto/running.md", "run_default", r"ψ = 0\.5648, in about (\d+ min) on 2 cores"),
+    ("docs/howto/running.md", "run_ros2", r"reference ψ: (\S+ s) with ROS2"),
+    ("docs/howto/running.md", "run_ros34pw2", r"(\S+ s) with `--integrator ros34pw2"),
+    ("docs/howto/continuation.md", "continuation_step",
+     r"one continuation step with its stability (\S+ s)"),
+    ("docs/howto/continuation.md", "neutral_quick", r"about ([\d.]+ min) for χ = 0\.2, 1, 3"),
+    ("docs/howto/continuation.md", "neutral_13", r"and (\S+ min) for 13 χ"),
+    ("docs/howto/continuation.md", "neutral_n8", r"other core busy\), (1\.6.*? at the folds)"),
+    ("docs/howto/report.md", "paper_quick", r"The quick report: about (\d+ min) on 2 cores"),
+    ("docs/howto/report.md", "paper_quick:measured", r"\((\d+ min \d+ s) measured on 2026-12-03"),
 ]
 
 
@@ -58,7 +74,9 @@ def test_the_readme_and_docs_quote_the_table(path, key, pattern):
     name, _, field = key.partition(":")
     figure = getattr(COSTS[name], field or "figure")
     for quoted in found:
-        assert quoted == figure, f"{path} quotes {key} as {quoted!r}, vesicle.costs {figure!r}"
+        assert quoted == figure, (
+            f"{path} quotes {key} as {quoted!r}, vesicle.workflows.costs {figure!r}"
+        )
 
 
 @pytest.mark.parametrize("key", sorted(COSTS))
@@ -76,16 +94,17 @@ def test_each_measurement_is_stated_by_its_source(key):
 
 
 def test_the_study_costs_are_the_table_of_docs_studies():
-    """docs/studies.md *Costs*: one row per study, the CPU and longest point of the table."""
+    """docs/howto/studies.md *Costs*: one row per study, the CPU and longest point of the table."""
     rows = re.findall(r"^\| `([\w-]+)` \| ([^|]+) \| (\d+) \| (\d+)[^|]*\|$",
-                      (ROOT / "docs/studies.md").read_text(), flags=re.M)  # fmt: skip
+                      (ROOT / "docs/howto/studies.md").read_text(), flags=re.M)  # fmt: skip
     assert {name for name, *_ in rows} == set(STUDY_COSTS)
     for name, points, cpu, longest in rows:
         c = STUDY_COSTS[name]
         assert (int(cpu), int(longest)) == (c.cpu_s, c.longest_s), name
         assert points.startswith(c.points), (name, points)
-    assert "| `stress-lambda` (N = 8, 24×48) |" in (ROOT / "docs/studies.md").read_text()
-    assert "1223 s" in STUDY_COSTS["stress-lambda"].full and "| 1223 |" in _text("docs/studies.md")
+    assert "| `stress-lambda` (N = 8, 24×48) |" in (ROOT / "docs/howto/studies.md").read_text()
+    assert "1223 s" in STUDY_COSTS["stress-lambda"].full
+    assert "| 1223 |" in _text("docs/howto/studies.md")
 
 
 def test_vesicle_help_shows_the_table():
@@ -122,21 +141,21 @@ def test_study_list_shows_the_table_and_the_files_hold_no_cost():
         assert load_study(name, quick=True)[0]["cost"] == study_cost(name)
     assert "not measured yet" not in text and "28 s" not in text
     assert set(list_studies()) == set(STUDY_COSTS)  # every shipped study has its entry
-    folder = ROOT / "src/vesicle/studies"
+    folder = ROOT / "src/vesicle/workflows/studies"
     for path in folder.glob("*.toml"):
         assert "cost" not in tomllib.loads(path.read_text())["study"], path.name
 
 
 def test_a_study_file_of_ones_own_keeps_its_cost(tmp_path):
     """Only the shipped studies take their cost from the table; a study file's own stays."""
-    source = (ROOT / "src/vesicle/studies/tt-shape-lambda.toml").read_text()
+    source = (ROOT / "src/vesicle/workflows/studies/tt-shape-lambda.toml").read_text()
     path = tmp_path / "tt-shape-lambda.toml"
     path.write_text(source.replace("[study]\n", '[study]\ncost = "mine"\n', 1))
     assert load_study(path)[0]["cost"] == "mine"
 
 
 def test_sweep_help_names_every_task():
-    from vesicle.sweep import TASKS
+    from vesicle.workflows.sweep import TASKS
 
     text = _help("sweep", "--help")
     for task in TASKS:

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vesicle.ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
+from vesicle.solve.ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 
 
 def test_a_rigid_sphere_has_the_stress_of_spec_15_at_every_lambda():
@@ -19,7 +19,7 @@ def test_the_map_has_the_symmetry_of_the_reflected_shear():
     """Reflecting x -> -x maps an inclination psi to -psi and the shear to its reverse; the flow
     part is linear in the flow, so S_xz(psi) = S_xz(-psi), N1(psi) = -N1(-psi), N2 likewise;
     S_xz > 5/2 at lambda = 1 for a prolate shape at psi = pi/4 (it resists the strain)."""
-    lengths = [2.6, 1.75, 1.6]  # the v = 0.95 TT state's axes (docs/steady.md)
+    lengths = [2.6, 1.75, 1.6]  # the v = 0.95 TT state's axes (docs/notes/steady-measurements.md)
     directions = np.array([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]])
     m = stress_map(lengths, directions, 0.0, [-0.4, 0.4, np.pi / 4], [1.0, 6.0], grid=16)
     assert m["S_xz"][0] == pytest.approx(m["S_xz"][1], rel=1e-6)
@@ -30,7 +30,7 @@ def test_the_map_has_the_symmetry_of_the_reflected_shear():
 
 
 def test_turning_moves_the_long_axis_in_the_shear_plane():
-    from vesicle.analysis import diagnose
+    from vesicle.geometry.diagnostics import diagnose
 
     shape = equivalent_ellipsoid([2.6, 1.75, 1.6], np.eye(3), grid=16, turn=0.3)
     d = diagnose(shape)

@@ -21,9 +21,9 @@ import pytest
 from click.testing import CliRunner
 
 from vesicle.cli import main
-from vesicle.dynamics import RunParameters
-from vesicle.io import read_run
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
+from vesicle.io.files import read_run
 
 #: A small run that checkpoints after every step (checkpoint_every is in wall seconds).
 PARAMS = {"grid": 12, "degree": 4, "t_end": 0.3, "save_every": 0.01, "checkpoint_every": 1e-9}
@@ -31,9 +31,9 @@ PARAMS = {"grid": 12, "degree": 4, "t_end": 0.3, "save_every": 0.01, "checkpoint
 CHILD = """
 import sys
 from pathlib import Path
-from vesicle.dynamics import RunParameters
-from vesicle.io import read_run
-from vesicle.simulation import load_parameters, simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.io.files import read_run
+from vesicle.dynamics.simulation import load_parameters, simulate
 out = Path(sys.argv[1])
 def step(info):
     print("step", flush=True)  # the parent counts these to kill at a chosen step

@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import vesicle as vs
-from vesicle.dynamics import RunParameters
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.stokes.spectra import schur_symbol, sphere_relaxation_rates
 

@@ -5,21 +5,21 @@ import numpy as np
 import pytest
 
 import vesicle as vs
-from vesicle.factorised import (
+from vesicle.geometry.surface import Shape
+from vesicle.model.membrane import bending_force
+from vesicle.model.parameters import SolverTolerances
+from vesicle.solve.factorised import (
     FactorisedSystem,
     _block_apply,
     block_apply_reference,
     preconditioned_solve,
 )
-from vesicle.linearisation import linearised_jacobian
-from vesicle.membrane import bending_force
-from vesicle.parameters import SolverTolerances
-from vesicle.problem import SteadyProblem
-from vesicle.solver import VelocityTensionSolver
+from vesicle.solve.linearisation import linearised_jacobian
+from vesicle.solve.solver import VelocityTensionSolver
 from vesicle.sphere.bases import basis
-from vesicle.steady import initial_guess
+from vesicle.steady.newton import initial_guess
+from vesicle.steady.problem import SteadyProblem, finite_difference_jacobian
 from vesicle.stokes.operators import LayerPotentials, shape_derivatives_reference
-from vesicle.surface import Shape
 
 TIGHT = SolverTolerances(schur=1e-12, inner=1e-13, max_outer=400, max_inner=400)
 
@@ -136,7 +136,7 @@ def jacobians():
     fd = {}
     for h in (2e-4, 1e-4):
         column = lambda x: P.adot(x)[0]  # noqa: E731
-        fd[h] = vs.problem.finite_difference_jacobian(column, a, h, central=True)[0]
+        fd[h] = finite_difference_jacobian(column, a, h, central=True)[0]
     return lin, fd, P, a
 
 

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import vesicle as vs
-from vesicle.membrane import bending_energy, bending_force, tension_energy, tension_force
+from vesicle.model.membrane import bending_energy, bending_force, tension_energy, tension_force
 from vesicle.sphere.transforms import transform
 
 

@@ -7,9 +7,9 @@ import pytest
 from click.testing import CliRunner
 
 import vesicle as vs
+from vesicle.bifurcation.critical import critical_lambda
+from vesicle.bifurcation.neutral import neutral_curve
 from vesicle.cli import main
-from vesicle.critical import critical_lambda
-from vesicle.neutral import neutral_curve
 
 DISC = vs.Discretisation(grid=16, degree=4)
 
@@ -38,7 +38,8 @@ def test_low_shear_end_is_a_fold(curve):
     """chi = 0.2 is below the type change (SPEC §14: near 0.25 at v = 0.95): a saddle-node
     with a real critical eigenvalue, where critical_lambda's bracketing cannot go.  Its
     lambda_c is the fold of the branch, 7.4833 (the branch tracer's pseudo-arclength gives
-    7.48326 at this resolution, docs/continuation.md); the state just below it is stable."""
+    7.48326 at this resolution, docs/notes/continuation-measurements.md); the state just
+    below it is stable."""
     low = curve.points[0]
     assert low.chi == 0.2 and low.bifurcation == "saddle-node" and low.omega_R < 1e-2
     assert low.lambda_c == pytest.approx(7.4833, abs=2e-3)
@@ -115,8 +116,8 @@ def test_phase_diagram_of_neutral_files(tmp_path):
 
 def _fake_point(self, start, chi, lam_pred, fallbacks=()):
     """A stand-in for the tracer's point (no numerics): fails beyond chi = 2."""
-    from vesicle.neutral import NeutralPoint
-    from vesicle.steady import NewtonError
+    from vesicle.bifurcation.neutral import NeutralPoint
+    from vesicle.steady.newton import NewtonError
 
     if chi > 2.0:
         raise NewtonError(f"no stable tank-treading state found at chi = {chi:g}")
@@ -128,7 +129,7 @@ def _fake_point(self, start, chi, lam_pred, fallbacks=()):
 
 @pytest.fixture
 def failing_tracer(monkeypatch):
-    import vesicle.neutral as neutral
+    import vesicle.bifurcation.neutral as neutral
 
     monkeypatch.setattr(neutral._Tracer, "point", _fake_point)
     monkeypatch.setattr(neutral, "critical_lambda",
@@ -155,7 +156,7 @@ def test_a_failing_direction_keeps_what_was_found(failing_tracer, tmp_path):
 
 
 def _run_store(path, rows):
-    from vesicle.sweep import SweepStore
+    from vesicle.workflows.sweep import SweepStore
 
     records = {f"p{i}": {"status": "done", "physics": {"v": v, "chi": chi, "lam": lam},
                          "result": {"regime": regime, "period": 10.0}, "seconds": 1.0}
@@ -173,7 +174,7 @@ def test_phase_diagrams_with_classified_runs(tmp_path):
                                  "type_change": None}))  # fmt: skip
     store = tmp_path / "runs.h5"
     _run_store(store, [(0.95, 1.0, 7.0, "TT"), (0.95, 6.0, 9.5, "TR"), (0.95, 1.0, 12.0, "TU")])
-    from vesicle.sweep import runs_from_store
+    from vesicle.workflows.sweep import runs_from_store
 
     runs = runs_from_store(store)
     assert sorted(r["regime"] for r in runs) == ["TR", "TT", "TU"]
@@ -182,7 +183,7 @@ def test_phase_diagrams_with_classified_runs(tmp_path):
     assert r.exit_code == 0, r.output
     for name in ("phase_diagram.png", "phase_SLambda.png"):
         assert (tmp_path / "fig" / name).read_bytes()[:4] == b"\x89PNG"
-    from vesicle.sweep import SweepStore
+    from vesicle.workflows.sweep import SweepStore
 
     SweepStore(tmp_path / "tt.h5", "f", "", "tt", {}).write()
     r = CliRunner().invoke(main, ["plot", str(curve), "--runs", str(tmp_path / "tt.h5")])
@@ -192,7 +193,7 @@ def test_phase_diagrams_with_classified_runs(tmp_path):
 def test_curves_of_one_volume_share_a_colour():
     """The dashed vorticity-aligned curve of a v is drawn in the colour of the in-plane curve of
     the same v (the colours used to follow the order of the curves)."""
-    from vesicle.phase_plots import _colors
+    from vesicle.plots.phase import _colors
 
     curves = [{"v": 0.95, "orientation": "vorticity"}, {"v": 0.90}, {"v": 0.95}, {"v": 0.98}]
     colors = _colors(curves)
@@ -205,8 +206,8 @@ def test_a_seed_that_fails_moves_to_the_next_chi(monkeypatch):
     chi = 1 is made to fail; chi = 3 seeds the curve and chi = 1 is reached by continuing the
     critical point down, which agrees with the bracketing search there (8.337 at N = 4 on
     12x24, the quick report's fig7)."""
-    from vesicle import neutral
-    from vesicle.steady import NewtonError
+    from vesicle.bifurcation import neutral
+    from vesicle.steady.newton import NewtonError
 
     real = neutral._seed
 
@@ -228,8 +229,8 @@ def test_a_seed_that_fails_moves_to_the_next_chi(monkeypatch):
 def test_seed_order_flow_nearest_one_vorticity_largest_first(monkeypatch):
     """The seeds tried, in order (every one made to fail, so nothing is computed): the in-plane
     branch from chi nearest 1 outwards; the vorticity branch from the largest chi down."""
-    from vesicle import neutral
-    from vesicle.steady import NewtonError
+    from vesicle.bifurcation import neutral
+    from vesicle.steady.newton import NewtonError
 
     tried = []
 
@@ -252,7 +253,7 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, stand_in,
     """`vesicle neutral --out F` keeps each point's state in F's checkpoint folder as it is
     found; after a stop (here a failure above chi = 1.6), `--resume` takes the points kept and
     traces only the rest: no seed search, no point traced twice."""
-    import vesicle.neutral as neutral
+    import vesicle.bifurcation.neutral as neutral
 
     calls = []
     monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
@@ -284,7 +285,7 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, stand_in,
                                          (["--xtol", "1e-2"], "xtol")])  # fmt: skip
 def test_resume_refuses_another_curve(small_state, stand_in, monkeypatch, tmp_path, change,
                                       key):
-    import vesicle.neutral as neutral
+    import vesicle.bifurcation.neutral as neutral
 
     out = tmp_path / "n.json"
     args = ["neutral", "--chi", "1,2", "--grid", "12", "--degree", "4", "--no-type-change",
@@ -304,8 +305,8 @@ def test_a_resumed_trace_is_the_uninterrupted_one(curve, tmp_path):
     """The point at chi = 1 written as a checkpoint and read back (its start state from the
     file) continues to chi = 1.3 exactly as from the state in memory: lambda_c, omega_R and the
     start state there agree to rounding."""
-    from vesicle.neutral import NeutralCurve
-    from vesicle.neutral_io import read_checkpoint, write_point_state
+    from vesicle.bifurcation.checkpoint import read_checkpoint, write_point_state
+    from vesicle.bifurcation.neutral import NeutralCurve
 
     p1 = next(p for p in curve.points if p.chi == 1.0)
     folder, out = tmp_path / "n.states", tmp_path / "n.json"
@@ -332,7 +333,7 @@ def test_tank_treading_past_a_fold_sets_lambda_c(monkeypatch):
     changes where H crosses F + PAST_FOLD xtol, not where the fold itself ends (the cusp, here
     chi = 0.8).  The model's lines: F = 5.40 + 0.1 chi, H = 5.0 + 0.8 chi; they cross
     3 xtol apart at chi = 0.403 / 0.7 = 0.5757."""
-    import vesicle.neutral as neutral
+    import vesicle.bifurcation.neutral as neutral
 
     F, H = (lambda c: 5.40 + 0.1 * c), (lambda c: 5.0 + 0.8 * c)
     starts = []
@@ -383,8 +384,8 @@ def test_a_point_past_a_fold_is_read_back_as_its_fold(small_state, tmp_path):
     one did), while a plain point is read back as written."""
     import dataclasses
 
-    from vesicle.neutral import NeutralCurve, NeutralPoint
-    from vesicle.neutral_io import read_checkpoint, write_point_state
+    from vesicle.bifurcation.checkpoint import read_checkpoint, write_point_state
+    from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint
 
     disc = vs.Discretisation(grid=12, degree=4)
     at = {c: dataclasses.replace(small_state, problem=small_state.problem.replace(
@@ -413,8 +414,8 @@ def test_what_counts_as_tank_treading_going_on_past_a_fold():
     and the Hopf point loses it: only the second is lambda_c."""
     from types import SimpleNamespace
 
-    from vesicle.branch import BranchPoint, SpecialPoint
-    from vesicle.neutral import _goes_on, _lost_upwards
+    from vesicle.bifurcation.branch import BranchPoint, SpecialPoint
+    from vesicle.bifurcation.neutral import _goes_on, _lost_upwards
 
     def at(lam, w_r, w_i, shift=-0.0092):
         omega = np.array([[-w_r, w_i], [w_r, w_i] if w_r else [0.0, -0.25]])
@@ -451,14 +452,14 @@ def test_past_the_cusp_lambda_c_is_the_hopf_point():
 @pytest.mark.slow
 def test_a_step_past_the_fold_of_an_s_shaped_branch_is_refused():
     """v = 0.95, chi = 0.2449, N = 4 on 16x32: a pseudo-arclength scan in lam (fixed arclength
-    steps, docs/continuation.md) shows an S-shaped branch: the part from low lam folds at
-    lam = 7.510, the upper part (from its own fold near 7.41) has a Hopf point at 7.446, so it
-    is unstable at 7.510 and lambda_c is the fold.  Before the first step of a branch had a
-    predictor, the 3 % step from 7.388 to 7.610 landed on the upper part unseen and the
-    crossing was reported there (Hopf 7.4457, or a saddle-node at 7.4567 between the lower
-    and the middle part, depending on the start)."""
-    from vesicle.branch import reach
-    from vesicle.neutral import _Tracer
+    steps, docs/notes/continuation-measurements.md) shows an S-shaped branch: the part from low lam
+    folds at lam = 7.510, the upper part (from its own fold near 7.41) has a Hopf point at 7.446, so
+    it is unstable at 7.510 and lambda_c is the fold. Before the first step of a branch had a
+    predictor, the 3 % step from 7.388 to 7.610 landed on the upper part unseen and the crossing was
+    reported there (Hopf 7.4457, or a saddle-node at 7.4567 between the lower and the middle part,
+    depending on the start)."""
+    from vesicle.bifurcation.branch import reach
+    from vesicle.bifurcation.neutral import _Tracer
 
     chi = 0.2449
     tracer = _Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
@@ -486,8 +487,8 @@ def test_a_new_chi_starts_from_further_back_where_the_neighbour_reaches_nothing(
     lam, before lam is lowered."""
     import types
 
-    import vesicle.neutral as neutral
-    from vesicle.steady import NewtonError
+    import vesicle.bifurcation.neutral as neutral
+    from vesicle.steady.newton import NewtonError
 
     near, far = _at_chi(small_state, 0.27, 7.6), _at_chi(small_state, 0.3746, 7.8)
     calls = []
@@ -512,8 +513,8 @@ def test_a_new_chi_starts_from_further_back_where_the_neighbour_reaches_nothing(
 def test_the_trace_offers_the_states_of_the_two_points_further_back(small_state, monkeypatch):
     """Each new chi of the trace gets its neighbour's start state and, as fallbacks, those of
     the two points before it (nearest first)."""
-    import vesicle.neutral as neutral
-    from vesicle.neutral import NeutralPoint
+    import vesicle.bifurcation.neutral as neutral
+    from vesicle.bifurcation.neutral import NeutralPoint
 
     offered = {}
 
@@ -537,8 +538,8 @@ def test_a_branch_leg_that_failed_is_not_run_again_from_the_same_state(small_sta
     computation, so its failure is taken from the first (at N = 8 such a branch costs minutes)."""
     import types
 
-    import vesicle.neutral as neutral
-    from vesicle.steady import NewtonError
+    import vesicle.bifurcation.neutral as neutral
+    from vesicle.steady.newton import NewtonError
 
     legs = []
 

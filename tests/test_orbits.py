@@ -4,7 +4,7 @@ trajectories whose class is known by construction."""
 import numpy as np
 import pytest
 
-from vesicle.analysis import classify_orbit
+from vesicle.geometry.diagnostics import classify_orbit
 
 
 def _frames(long_axis: np.ndarray) -> np.ndarray:
@@ -66,7 +66,7 @@ def test_tilt_growth_of_a_tumbling_orbit():
     """Expected numbers by construction: the angle is 1e-3 exp(sigma t) times a factor that
     repeats every half turn, so sampling once per half turn sees sigma exactly (a straight line
     through every saved step would not: the factor swings by +-50 % within each turn)."""
-    from vesicle.analysis import out_of_plane_angle, tilt_growth
+    from vesicle.geometry.diagnostics import out_of_plane_angle, tilt_growth
 
     t = np.linspace(0.0, 30.0, 6001)
     period, sigma = 3.0, -0.05
@@ -85,7 +85,7 @@ def test_tilt_growth_of_a_tumbling_orbit():
 
 
 def test_tilt_growth_in_the_plane_and_without_tumbling():
-    from vesicle.analysis import tilt_growth
+    from vesicle.geometry.diagnostics import tilt_growth
 
     t = np.linspace(0.0, 30.0, 3001)
     psi, frames = _tumbling_tilted(t, 3.0, np.zeros_like(t))
@@ -104,7 +104,7 @@ def test_tilt_growth_in_the_plane_and_without_tumbling():
 
 def test_tilt_growth_says_when_the_angle_is_not_small():
     """A precession at 0.6 rad from y (elevation pi/2 - 0.6) is an orbit, not a small tilt."""
-    from vesicle.analysis import tilt_growth
+    from vesicle.geometry.diagnostics import tilt_growth
 
     cone = np.stack([np.sin(0.6) * np.cos(2 * np.pi * T / 5), np.full_like(T, np.cos(0.6)),
                      np.sin(0.6) * np.sin(2 * np.pi * T / 5)], axis=1)  # fmt: skip

@@ -8,7 +8,7 @@ from click.testing import CliRunner
 
 import vesicle as vs
 from vesicle.cli import main
-from vesicle.steady import NewtonError
+from vesicle.steady.newton import NewtonError
 
 DISC = vs.Discretisation(grid=12, degree=4)
 POINT = vs.Physics(v=0.95, lam=11.0, chi=4.0)
@@ -69,9 +69,9 @@ def test_vorticity_searches_start_where_the_branch_exists():
     ends near lam = 5.27 (measured 2026-12-03): the default start is now four times the
     leading-order value (at least 4), where Newton converges on that branch; below, ``reach``
     says which easier starts it tried and where the continuation stopped."""
-    from vesicle.branch import reach
-    from vesicle.critical import vorticity_start_lambda
-    from vesicle.theory import misbah_critical_lambda
+    from vesicle.bifurcation.branch import reach
+    from vesicle.bifurcation.critical import vorticity_start_lambda
+    from vesicle.model.theory import misbah_critical_lambda
 
     d = vs.Discretisation(grid=12, degree=4)
     lam = vorticity_start_lambda(0.90)

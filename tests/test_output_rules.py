@@ -13,14 +13,15 @@ from click.testing import CliRunner
 import vesicle as vs
 from vesicle.cli import main
 from vesicle.cli import steady as cli_steady
-from vesicle.steady import NewtonError
-from vesicle.steady_io import read_steady, steady_summary, write_steady
-from vesicle.sweep import TASKS, Task, run_point
+from vesicle.steady.files import read_steady, steady_summary, write_steady
+from vesicle.steady.newton import NewtonError
+from vesicle.workflows.sweep import TASKS, Task, run_point
 
 TINY = vs.Discretisation(grid=8, degree=2)
-# the modules (``vesicle.branch`` is also the name of a function in the package namespace)
-branch_module = sys.modules["vesicle.branch"]
-critical_module = sys.modules["vesicle.critical"]
+# the modules (``vesicle.bifurcation.branch`` is also the name of a function in the package
+# namespace)
+branch_module = sys.modules["vesicle.bifurcation.branch"]
+critical_module = sys.modules["vesicle.bifurcation.critical"]
 
 
 def run(*args):

@@ -9,9 +9,9 @@ import pytest
 import xarray as xr
 
 import vesicle as vs
-from vesicle.dynamics import RunParameters
-from vesicle.io import OPTIONAL_SERIES, SERIES, read_run
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
+from vesicle.io.files import OPTIONAL_SERIES, SERIES, read_run
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +86,7 @@ def test_stored_velocity_moves_the_stored_shapes(tmp_path):
     """An independent check of the velocity field: the filtered dr/dt it implies (2.18)-(2.19)
     against the central difference of the saved shapes around that step (dt = 1e-3, no drift
     control or re-centring to move them otherwise)."""
-    from vesicle.kinematics import rate_of_change
+    from vesicle.model.kinematics import rate_of_change
 
     path = tmp_path / "r.h5"
     simulate(RunParameters(v=0.9, lam=2.0, chi=3.0, grid=12, degree=4, t_end=0.006,

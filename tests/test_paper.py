@@ -9,8 +9,8 @@ import pytest
 from click.testing import CliRunner
 
 from vesicle.cli import main
-from vesicle.io import read_run
-from vesicle.paper import ITEMS, PAPER_LABEL, TABLE1_PAPER, Item, build_report
+from vesicle.io.files import read_run
+from vesicle.workflows.paper import ITEMS, PAPER_LABEL, TABLE1_PAPER, Item, build_report
 
 
 def _boom(folder, quick, options):
@@ -121,8 +121,8 @@ def test_tilted_starts_item_measures_tumbling_against_tilt(tmp_path):
 def test_runs_are_drawn_on_the_neutral_curves_of_their_degree(tmp_path):
     """Figure 12's runs on Figure 7's phase diagrams (the paper's TR and TU points): drawn when
     fig7 has run and has a curve at the runs' degree; nothing otherwise."""
-    from vesicle.paper import _regimes_on_curves
-    from vesicle.sweep import SweepStore
+    from vesicle.workflows.paper import _regimes_on_curves
+    from vesicle.workflows.sweep import SweepStore
 
     folder = tmp_path / "fig12"
     folder.mkdir()
@@ -154,8 +154,8 @@ def test_period_checks_against_the_hopf_frequency_and_the_fold(tmp_path):
     T = 3 (lam - 7.5)^(-1/2) with lam_c free (three runs) and at fig8's fold (7.5)."""
     import math
 
-    from vesicle.paper import _period_checks
-    from vesicle.sweep import SweepStore
+    from vesicle.workflows.paper import _period_checks
+    from vesicle.workflows.sweep import SweepStore
 
     folder = tmp_path / "fig12"
     folder.mkdir()
@@ -199,7 +199,7 @@ def test_period_checks_against_the_hopf_frequency_and_the_fold(tmp_path):
 def test_only_located_special_points_are_compared():
     """The type change and lambda_c(chi = 1) of the neutral curves: compared where located, else
     listed as an estimate, not compared; the resolution said where it is not the paper's."""
-    from vesicle.paper import PAPER_LAMBDA_C_CHI1, _neutral_comparisons
+    from vesicle.workflows.paper import PAPER_LAMBDA_C_CHI1, _neutral_comparisons
 
     def curve(v, located, change):
         return {"v": v, "degree": 4, "grid": 12, "type_change": change,
@@ -224,7 +224,7 @@ def test_only_located_special_points_are_compared():
 def _fake_item(folder, quick, options):
     """A cheap item: its comparisons (a located and an estimated special point, a check against
     our own reference) and a file that counts its calls, draw-only ones apart."""
-    from vesicle.paper import _check, _compare
+    from vesicle.workflows.paper import _check, _compare
 
     name = "draws" if options.get("draw_only") else "computes"
     count = folder / name

@@ -14,8 +14,8 @@ from hypothesis import strategies as st
 
 import vesicle as vs
 from vesicle.caches import CACHE_SIZES, cache_info, clear_caches
-from vesicle.dynamics import RunParameters
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
 from vesicle.sphere.transforms import transform
 from vesicle.stokes.backends import BACKENDS
 

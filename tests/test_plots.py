@@ -1,11 +1,11 @@
-"""Diagnostic figures of a run (vesicle.plots)."""
+"""Diagnostic figures of a run (vesicle.plots.runs)."""
 
 import numpy as np
 import pytest
 
 from vesicle import Shape
-from vesicle.io import RunData
-from vesicle.plots import is_out_of_plane, plot_run, section_xy, section_xz
+from vesicle.io.files import RunData
+from vesicle.plots.runs import is_out_of_plane, plot_run, section_xy, section_xz
 from vesicle.sphere.transforms import mode_energy
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
@@ -112,17 +112,17 @@ def test_missing_series_is_reported(tmp_path):
 
 # ------------------------------------------------ the report's figures (issue 38)
 def _capture_figures(monkeypatch):
-    """The figures saved through ``vesicle.plots._save``, kept for inspection."""
-    import vesicle.plots
+    """The figures saved through ``vesicle.plots.runs._save``, kept for inspection."""
+    import vesicle.plots.runs
 
     saved = []
-    original = vesicle.plots._save
+    original = vesicle.plots.runs._save
 
     def save(fig, path, dpi):
         saved.append(fig)
         return original(fig, path, dpi)
 
-    monkeypatch.setattr(vesicle.plots, "_save", save)
+    monkeypatch.setattr(vesicle.plots.runs, "_save", save)
     return saved
 
 
@@ -135,7 +135,7 @@ def _legend_entries(fig) -> dict:
 
 
 def _run_store(tmp_path, runs):
-    from vesicle.sweep import SweepStore
+    from vesicle.workflows.sweep import SweepStore
 
     records = {f"p{i}": {"status": "done", "physics": {"v": 0.95, "lam": lam, "chi": chi},
                          "result": {"v": 0.95, "lam": lam, "chi": chi, "regime": regime,
@@ -147,7 +147,7 @@ def _run_store(tmp_path, runs):
 
 
 def test_readable_labels_with_units():
-    from vesicle.study import axis_label, curve_label
+    from vesicle.workflows.study import axis_label, curve_label
 
     mean = r"$\langle S_{xz} \rangle$ (period average) [$c\,\mu\dot\gamma$]"
     assert axis_label("mean.S_xz") == mean
@@ -161,7 +161,7 @@ def test_readable_labels_with_units():
 def test_runs_figure_legend_handles_match_the_markers(tmp_path, monkeypatch):
     """The regimes' legend entries carry their own markers (a square for TU, a triangle for TR),
     the curves' entries no circle; the title has no marker codes; stresses in one panel."""
-    from vesicle.study import plot_study
+    from vesicle.workflows.study import plot_study
 
     saved = _capture_figures(monkeypatch)
     store = _run_store(tmp_path, [(6.0, 12.0, "TR"), (6.0, 20.0, "TU")])
@@ -189,8 +189,8 @@ def test_runs_figure_legend_handles_match_the_markers(tmp_path, monkeypatch):
 def test_branch_figure_legend_is_outside_and_names_the_theory(tmp_path, monkeypatch):
     """A study of branches: one legend right of the axes (not over the data), stable and
     unstable handles, the leading-order theory named as such, the paper's lambda_c drawn."""
-    from vesicle.study import plot_study
-    from vesicle.sweep import SweepStore
+    from vesicle.workflows.study import plot_study
+    from vesicle.workflows.sweep import SweepStore
 
     saved = _capture_figures(monkeypatch)
     points = [{"v": 0.95, "lam": lam, "chi": 1.0, "psi": 0.3 - 0.05 * lam, "D": 0.2,
@@ -213,7 +213,7 @@ def test_branch_figure_legend_is_outside_and_names_the_theory(tmp_path, monkeypa
 def test_phase_diagram_draws_the_papers_values(tmp_path, monkeypatch):
     """lambda_c = 8.46 at chi = 1 and the type changes (v = 0.95, 0.90) labelled "paper (SPEC
     §14)"; the theory lines' entry says they are the leading-order small-deformation limit."""
-    from vesicle.phase_plots import plot_neutral
+    from vesicle.plots.phase import plot_neutral
 
     saved = _capture_figures(monkeypatch)
     curves = [{"v": v, "degree": 4, "grid": 12, "type_change": None,

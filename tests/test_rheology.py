@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 
 import vesicle as vs
-from vesicle import theory
-from vesicle.dynamics import RunParameters
-from vesicle.membrane import membrane_force
-from vesicle.rheology import far_field_stresslet
-from vesicle.simulation import simulate
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
+from vesicle.model import theory
+from vesicle.model.membrane import membrane_force
+from vesicle.model.rheology import far_field_stresslet
 from vesicle.sphere.rotation import rotation_matrix
 
 TIGHT = vs.SolverTolerances(1e-10, 1e-11)
@@ -102,7 +102,7 @@ def test_far_field_of_a_sphere_is_einsteins():
 @pytest.fixture(scope="module")
 def quasi_spheres():
     """Steady TT at lam = 1, chi = 1 for v -> 1 (N = 4 on 16 x 32: converged to 1e-5 in psi,
-    N1 and N2 against N = 6 on 24 x 48 at these v, see docs/rheology.md)."""
+    N1 and N2 against N = 6 on 24 x 48 at these v, see docs/reference/rheology.md)."""
     out = {}
     for v in (0.99, 0.995, 0.999):
         p = vs.Physics(v=v, lam=1.0, chi=1.0)

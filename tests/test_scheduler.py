@@ -1,6 +1,6 @@
 """A sweep on a real Dask scheduler (issue 38): ``vesicle sweep CONFIG --scheduler ADDRESS``.
 
-README and docs/sweeps.md: ``--scheduler tcp://host:port`` sends the points to any Dask
+README and docs/howto/sweeps.md: ``--scheduler tcp://host:port`` sends the points to any Dask
 scheduler (e.g. one from dask-jobqueue on a cluster).  Here the scheduler and two one-thread
 workers are separate processes started with Dask's own command line (``dask scheduler``,
 ``dask worker ADDRESS``) on localhost, as a cluster's job scripts start them; the sweep runs in
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from vesicle.sweep import SweepStore, read_sweep_config
+from vesicle.workflows.sweep import SweepStore, read_sweep_config
 
 DASK = Path(sys.executable).with_name("dask")
 

@@ -8,10 +8,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import vesicle as vs
-from vesicle.analysis import classify_regime, diagnose, recentered
-from vesicle.dynamics import Integrator, RunParameters, rate_of_change, restore_area_volume
-from vesicle.io import read_run, write_run
-from vesicle.simulation import load_parameters, simulate, summarize
+from vesicle.dynamics.integrators import (
+    Integrator,
+    RunParameters,
+    rate_of_change,
+    restore_area_volume,
+)
+from vesicle.dynamics.simulation import load_parameters, simulate, summarize
+from vesicle.geometry.diagnostics import classify_regime, diagnose, recentered
+from vesicle.io.files import read_run, write_run
 from vesicle.sphere.rotation import rotation_matrix
 
 FAST = {"grid": 12, "degree": 4, "save_every": 0.02, "dt0": 1e-3}
@@ -244,7 +249,7 @@ def test_ros34pw2_error_estimate_is_of_third_order():
 
 @pytest.mark.parametrize("omega", [(2.94, -0.083), (1.2, 0.02), (5.0, -0.4)])
 def test_damped_oscillation_fit_recovers_its_parameters(omega):
-    from vesicle.analysis import fit_damped_oscillation
+    from vesicle.geometry.diagnostics import fit_damped_oscillation
 
     t = np.arange(0.0, 15.0, 0.02)
     psi = 0.3 + 0.05 * np.exp(omega[1] * t) * np.cos(omega[0] * t + 1.0)
@@ -275,7 +280,7 @@ def test_split_stress_at_saved_steps_adds_up(tmp_path):
 def test_post_step_recentres_then_restores_area_and_volume():
     """Re-centring re-measures the radius at degree N, which moves the area and volume; the
     drift correction must come after it (it once came first and was undone)."""
-    from vesicle.dynamics import StepState, post_step
+    from vesicle.dynamics.integrators import StepState, post_step
     from vesicle.sphere.transforms import resize
 
     p = params(degree=6, grid=16, drift_tol=1e-9)
@@ -291,7 +296,7 @@ def test_post_step_recentres_then_restores_area_and_volume():
 
 
 def test_a_step_near_a_save_time_is_split_evenly_not_into_a_sliver():
-    from vesicle.simulation import _landing_step
+    from vesicle.dynamics.simulation import _landing_step
 
     assert _landing_step(0.06, 0.05) == 0.05  # covers it: land
     assert _landing_step(0.03, 0.05) == 0.025  # more than half: two even steps, no 0.02 sliver
@@ -322,7 +327,7 @@ def test_regime_from_a_short_tail(omega_i, regime):
 
 def test_ray_radius_reports_non_convergence():
     """One secant step cannot meet an off-centre ellipsoid: an error, not the last iterate."""
-    from vesicle.analysis import ray_radius
+    from vesicle.geometry.diagnostics import ray_radius
 
     s = vs.Shape.ellipsoid(1.4, 1.0, 0.8, grid=12)
     dirs = s.grid.unit_vectors[0]
@@ -377,9 +382,9 @@ def test_a_run_stopped_at_a_steady_state_is_tt_and_says_why():
     'undetermined' (here: the run starts on the Newton state and stops at once; its rate is
     about 1e-3, not 0, the multipliers' share of docs/architecture.md, hence 2e-2)."""
     import vesicle as vs
-    from vesicle.analysis import summarize
-    from vesicle.dynamics import RunParameters
-    from vesicle.simulation import simulate
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.geometry.diagnostics import summarize
 
     steady = vs.steady_tank_treading(vs.Physics(v=0.95, lam=1.0, chi=1.0), vs.Discretisation(12, 4))
     params = RunParameters(v=0.95, lam=1.0, chi=1.0, grid=12, degree=4, t_end=1.0,
@@ -396,7 +401,7 @@ def test_only_settled_periods_are_counted():
     the late ones are (the swing's deficit exp(-t/4) is below 2 % from t = 15.6: about the last
     12 periods); a steady tumbling's half turns all count; a swing that keeps growing never
     settles."""
-    from vesicle.analysis import settled_periods
+    from vesicle.geometry.diagnostics import settled_periods
 
     t = np.arange(0.0, 40.0, 0.1)
     psi = 0.2 + 0.3 * (1 - np.exp(-t / 4)) * np.cos(np.pi * t)
@@ -418,7 +423,7 @@ def test_a_run_stopped_on_settled_periods_is_classified_from_the_whole_run():
     quick report's chi = 6, lam = 9 run at N = 4) has one swing in its last half: its regime
     comes from the whole run's swings (sustained: TR; damped by 30 % a period: TT), not
     "undetermined"."""
-    from vesicle.analysis import settled_periods
+    from vesicle.geometry.diagnostics import settled_periods
 
     t = np.arange(0.0, 5.80001, 0.1)
     phase = 2 * np.pi * (t + 0.891) / 2.388  # minima at t = 0.9, 3.29, 5.68

@@ -6,9 +6,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import vesicle as vs
-from vesicle.flows import LinearFlow
-from vesicle.parameters import Physics
-from vesicle.solver import SolverError, SolverTolerances, VelocityTensionSolver, solve_flow
+from vesicle.model.flows import LinearFlow
+from vesicle.model.parameters import Physics
+from vesicle.solve.solver import SolverError, SolverTolerances, VelocityTensionSolver, solve_flow
 from vesicle.sphere.rotation import rotation_matrix
 from vesicle.sphere.transforms import transform
 from vesicle.stokes import LayerPotentials
@@ -207,7 +207,7 @@ def test_sphere_relaxation_rates_match_the_solver_on_a_quasi_sphere(lam):
     """A quasi-sphere r = 1 + eps Y_20 at rest is held by the tension sigma ~ -6 (E_2 = 0); a
     small Y_40 added to it decays at Gamma_4(sigma), to O(eps).  This also fixes the sign of the
     tension in the symbol."""
-    from vesicle.dynamics import rate_of_change
+    from vesicle.dynamics.integrators import rate_of_change
 
     N, eps, delta = 6, 0.01, 1e-3
     rates = []

@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 import vesicle as vs
-from vesicle.critical import _bracket, critical_lambda
-from vesicle.dynamics import RunParameters
-from vesicle.simulation import simulate
-from vesicle.solver import SolverTolerances
-from vesicle.stability import FullBasis, stability
-from vesicle.steady import NewtonError, SymmetricBasis, steady_tank_treading
+from vesicle.bifurcation.critical import _bracket, critical_lambda
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
+from vesicle.solve.solver import SolverTolerances
+from vesicle.steady.newton import NewtonError, SymmetricBasis, steady_tank_treading
+from vesicle.steady.stability import FullBasis, stability
 
 
 @pytest.fixture(scope="module")
@@ -160,10 +160,10 @@ def test_stability_with_the_multipliers_curvature(state_v085, caplog):
     import importlib
 
     # the module (the package's attribute of that name is the function)
-    stability_module = importlib.import_module("vesicle.stability")
+    stability_module = importlib.import_module("vesicle.steady.stability")
 
     stability_module._WARNED.clear()
-    with caplog.at_level("INFO", logger="vesicle.stability"):
+    with caplog.at_level("INFO", logger="vesicle.steady.stability"):
         stability(r)
         stability(r)
     said = [(rec.levelname, rec.getMessage()) for rec in caplog.records
@@ -175,7 +175,7 @@ def test_stability_with_the_multipliers_curvature(state_v085, caplog):
 def test_no_curvature_warning_where_the_multipliers_are_small(steady, caplog):
     """v = 0.95, lam = 8, chi = 10 (N = 4, 16 x 32): the two forms' leading growth rates differ
     by 5.8e-3 (measured: -0.0626 and -0.0685), below the warning threshold 1e-2."""
-    with caplog.at_level("WARNING", logger="vesicle.stability"):
+    with caplog.at_level("WARNING", logger="vesicle.steady.stability"):
         s = stability(steady)
     assert abs(s.curvature_shift) < 1e-2 and "raise the degree" not in caplog.text
 
@@ -183,7 +183,7 @@ def test_no_curvature_warning_where_the_multipliers_are_small(steady, caplog):
 def test_a_result_at_a_converged_state(steady):
     """steady_result_at (the pseudo-arclength corrector's states, where Newton at fixed
     parameters is singular): one evaluation, no Newton step, the same Jacobian as Newton's."""
-    from vesicle.steady import steady_result_at
+    from vesicle.steady.newton import steady_result_at
 
     r = steady_result_at(steady.problem, steady.a, np.array(steady.multipliers))
     assert r.converged and r.residual < 1e-8 and r.newton_iterations == 0
@@ -195,8 +195,8 @@ def test_symmetric_stability_near_paper(steady):
     """Paper, Table 1, N = 4 at 32 x 64: (3.226, -5.602e-2); this is 16 x 32, which gives the
     same five digits as 32 x 64: (3.22943, -0.06263).  omega_R agrees to 0.11 %.  omega_I is
     12 % more damped than the paper's at N = 4 (within 5 % from N = 6, 1.2 % at N = 14): a gap
-    of the truncated low-N model investigated in docs/steady.md ("The low-N gap in omega_I"),
-    so the bound is that measured gap, not a loose one."""
+    of the truncated low-N model investigated in docs/notes/steady-measurements.md ("The low-N
+    gap in omega_I"), so the bound is that measured gap, not a loose one."""
     s = stability(steady)
     w_r, w_i = s.most_unstable
     assert w_r == pytest.approx(3.226, rel=2e-3)

@@ -9,8 +9,8 @@ from click.testing import CliRunner
 
 import vesicle as vs
 from vesicle.cli import main
-from vesicle.io import read_run
-from vesicle.steady_io import open_steady, read_steady
+from vesicle.io.files import read_run
+from vesicle.steady.files import open_steady, read_steady
 
 ARGS = ["--grid", "12", "--degree", "4", "--v", "0.95", "--lam", "2", "--chi", "3"]
 

@@ -6,8 +6,8 @@ import pytest
 from click.testing import CliRunner
 
 from vesicle.cli import main
-from vesicle.study import _write_config, list_studies, load_study, run_study, study_rows
-from vesicle.sweep import SweepStore, read_sweep_config
+from vesicle.workflows.study import _write_config, list_studies, load_study, run_study, study_rows
+from vesicle.workflows.sweep import SweepStore, read_sweep_config
 
 SMALL = """
 [study]
@@ -61,7 +61,7 @@ def test_a_small_study_runs_resumes_and_draws(tmp_path):
         rows = list(csv.DictReader(f))
     assert [float(r["lam"]) for r in rows] == [1.0, 1.5, 2.0]
     assert all(float(r["bending.S_xz"]) != 0.0 for r in rows)
-    # psi decreases with lam along the branch at chi = 1 (Misbah's trend; docs/steady.md)
+    # psi decreases with lam along the branch at chi = 1 (Misbah's trend; docs/howto/studies.md)
     assert float(rows[0]["psi"]) > float(rows[1]["psi"]) > float(rows[2]["psi"]) > 0
     with open(result["figure"], "rb") as f:
         assert f.read(4) == b"\x89PNG"
@@ -120,7 +120,7 @@ def test_runs_figure_and_period_fit_on_a_synthetic_store(tmp_path):
     recovers an exact T = 3 (lam - 7.5)^(-1/2) (lam_c and the exponent of a saddle-node)."""
     import json
 
-    from vesicle.study import period_fit, plot_study
+    from vesicle.workflows.study import period_fit, plot_study
 
     lams = [7.6, 7.8, 8.0, 8.5, 9.0, 10.0]
     records = {f"p{i}": {"status": "done", "physics": {"v": 0.95, "lam": lam, "chi": 0.2},
@@ -156,7 +156,7 @@ def test_an_ellipsoid_map_study_runs_and_draws(tmp_path):
     (flow_stress of the same ellipsoid: an independent call), and S_xz(psi) is even about 0."""
     import numpy as np
 
-    from vesicle.ellipsoid import equivalent_ellipsoid, flow_stress
+    from vesicle.solve.ellipsoid import equivalent_ellipsoid, flow_stress
 
     path = tmp_path / "maps.toml"
     path.write_text("""[study]

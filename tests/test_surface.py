@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 import vesicle as vs
-from vesicle.surface import ShapeError, ellipsoid_area, ellipsoid_curvatures, spheroid_axes
+from vesicle.geometry.surface import ShapeError, ellipsoid_area, ellipsoid_curvatures, spheroid_axes
 
 AXES = (1.3, 0.9, 0.8)
 EXACT_VOLUME = 4 * np.pi * np.prod(AXES) / 3

@@ -14,8 +14,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from vesicle.cli import main
-from vesicle.config import ConfigError
-from vesicle.sweep import SweepStore, load, read_sweep_config, run_point, run_sweep, task_key
+from vesicle.workflows.config import ConfigError
+from vesicle.workflows.sweep import (
+    SweepStore,
+    load,
+    read_sweep_config,
+    run_point,
+    run_sweep,
+    task_key,
+)
 
 SMALL = "[discretisation]\ndegree = 4\ngrid = 12\n"
 
@@ -340,8 +347,8 @@ def test_a_branch_sweep_gives_what_branch_gives(tmp_path):
 def test_a_neutral_point_that_stopped_keeps_its_points_and_counts_as_failed(monkeypatch):
     """task = "neutral": a curve that stopped part-way is recorded as failed (a rerun retries
     it) with the points it found and where it stopped."""
-    import vesicle.sweep as sweep
-    from vesicle.neutral import NeutralCurve
+    import vesicle.workflows.sweep as sweep
+    from vesicle.bifurcation.neutral import NeutralCurve
 
     def stopped(physics, chi, disc, **options):
         return NeutralCurve(physics, disc, [], None, [], 0.0, [{"chi": 3.0, "error": "no TT"}])
@@ -360,7 +367,7 @@ def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeyp
     failure above chi = 1.6, as a lost worker would leave it) is tried again from them: the
     points kept are not traced again, nor is the seed searched."""
     import vesicle as vs
-    import vesicle.neutral as neutral
+    import vesicle.bifurcation.neutral as neutral
 
     path = write(tmp_path, '[sweep]\ntask = "neutral"\nout = "n.h5"\n[grid]\nv = [0.95]\n'
                            '[task]\nchi = [0.8, 1.0, 1.5, 2.0]\nlocate_type_change = false\n'
@@ -393,10 +400,10 @@ def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeyp
 def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
     """task = "run": each point's run file lies beside the store; a point whose run was cut
     short (here interrupted at t > 0.05) resumes from the file's checkpoint and ends where an
-    uninterrupted run ends (the restart is exact: SPEC, docs/dynamics.md)."""
-    from vesicle.dynamics import RunParameters
-    from vesicle.parameters import Discretisation, Physics
-    from vesicle.simulation import simulate
+    uninterrupted run ends (the restart is exact: SPEC, docs/reference/file-formats.md)."""
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.model.parameters import Discretisation, Physics
 
     body = ('[sweep]\ntask = "run"\nout = "r.h5"\n[grid]\nlam = [2.0]\n[run]\nt_end = 0.12\n'
             "save_every = 0.03\nsave_fields = false\n" + SMALL)  # fmt: skip
@@ -413,7 +420,7 @@ def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
 
     with pytest.raises(KeyboardInterrupt):
         simulate(params, out=runs / f"{point.key}.h5", progress=stop)
-    with caplog.at_level("INFO", logger="vesicle.sweep"):
+    with caplog.at_level("INFO", logger="vesicle.workflows.sweep"):
         entry = run_point("run", point.to_dict(), config.discretisation.to_dict(), {},
                           config.settings)  # fmt: skip
     assert entry["status"] == "done", entry.get("error")

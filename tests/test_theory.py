@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vesicle import theory
+from vesicle.model import theory
 
 
 def test_tt_inclination_limits_and_transition():

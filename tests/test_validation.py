@@ -13,11 +13,11 @@ Measured 2026-11-22 on the 2-core machine (with other work running):
 import numpy as np
 import pytest
 
-from vesicle.analysis import fit_damped_oscillation
-from vesicle.dynamics import RunParameters
-from vesicle.simulation import simulate
-from vesicle.stability import stability
-from vesicle.steady import steady_tank_treading
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import simulate
+from vesicle.geometry.diagnostics import fit_damped_oscillation
+from vesicle.steady.newton import steady_tank_treading
+from vesicle.steady.stability import stability
 
 pytestmark = pytest.mark.slow
 
@@ -94,8 +94,8 @@ def test_vorticity_branch_growth_agrees_with_time_stepping():
     long axis had given."""
     import scipy.linalg
 
-    from vesicle.parameters import Discretisation, Physics
-    from vesicle.surface import Shape
+    from vesicle.geometry.surface import Shape
+    from vesicle.model.parameters import Discretisation, Physics
 
     r = steady_tank_treading(Physics(v=0.95, lam=11.0, chi=4.0), Discretisation(grid=12, degree=4),
                              orientation="vorticity")  # fmt: skip

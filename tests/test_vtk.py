@@ -1,4 +1,4 @@
-"""VTK export of the surfaces of a run (vesicle.vtk)."""
+"""VTK export of the surfaces of a run (vesicle.io.vtk)."""
 
 import xml.etree.ElementTree as ET
 from collections import Counter
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from vesicle import Shape
-from vesicle.io import RunData
+from vesicle.io.files import RunData
+from vesicle.io.vtk import export_vtk, surface_mesh
 from vesicle.sphere.transforms import evaluate
-from vesicle.vtk import export_vtk, surface_mesh
 
 GRID = 8
 
@@ -137,9 +137,9 @@ def test_every_is_validated(tmp_path, every):
 @pytest.fixture(scope="module")
 def run_with_fields(tmp_path_factory):
     """20 steps of a run that kept its fields (12 x 24, N = 4)."""
-    from vesicle.dynamics import RunParameters
-    from vesicle.io import read_run
-    from vesicle.simulation import simulate
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.io.files import read_run
 
     path = tmp_path_factory.mktemp("fields") / "r.h5"
     params = RunParameters(v=0.9, lam=2.0, chi=3.0, grid=12, degree=4, t_end=0.02,

@@ -1,22 +1,22 @@
 """vesicle: spectral boundary-integral simulation of a lipid vesicle in Stokes shear flow."""
 
-from ._version import __version__
-from .branch import Branch, BranchPoint, SpecialPoint, branch
-from .caches import cache_info, clear_caches
-from .critical import CriticalResult, critical_lambda
-from .flows import LinearFlow
-from .io import open_run
-from .membrane import bending_energy, bending_force, membrane_force, tension_force
-from .neutral import NeutralCurve, NeutralPoint, neutral_curve
-from .parameters import Discretisation, Physics, SolverTolerances
-from .problem import SteadyProblem
-from .rheology import ParticleStress
-from .solver import FlowResult, SolverError, solve_flow
-from .sphere.grid import SphereGrid
-from .stability import StabilityResult, stability
-from .steady import NewtonError, SteadyResult, steady_tank_treading
-from .stokes import LayerPotentials, double_layer, single_layer
-from .surface import Shape, ShapeError
+from vesicle._version import __version__
+from vesicle.bifurcation.branch import Branch, BranchPoint, SpecialPoint, branch
+from vesicle.bifurcation.critical import CriticalResult, critical_lambda
+from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint, neutral_curve
+from vesicle.caches import cache_info, clear_caches
+from vesicle.geometry.surface import Shape, ShapeError
+from vesicle.io.files import open_run
+from vesicle.model.flows import LinearFlow
+from vesicle.model.membrane import bending_energy, bending_force, membrane_force, tension_force
+from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
+from vesicle.model.rheology import ParticleStress
+from vesicle.solve.solver import FlowResult, SolverError, solve_flow
+from vesicle.sphere.grid import SphereGrid
+from vesicle.steady.newton import NewtonError, SteadyResult, steady_tank_treading
+from vesicle.steady.problem import SteadyProblem
+from vesicle.steady.stability import StabilityResult, stability
+from vesicle.stokes import LayerPotentials, double_layer, single_layer
 
 __all__ = [
     "Branch",

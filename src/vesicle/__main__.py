@@ -1,6 +1,6 @@
 """``python -m vesicle``: the command line, as ``vesicle``."""
 
-from .cli import main
+from vesicle.cli import main
 
 if __name__ == "__main__":
     main()

@@ -18,8 +18,8 @@ from pathlib import Path
 
 import click
 
-from .._version import __version__
-from ..costs import command_help
+from vesicle._version import __version__
+from vesicle.workflows.costs import command_help
 
 
 def fail(message: str) -> None:
@@ -42,7 +42,8 @@ def fail(message: str) -> None:
 )
 def main(verbose: int) -> None:
     """The ``vesicle`` command group. Its help (``help=`` above) is the one-line summary with
-    the measured costs of :mod:`vesicle.costs`, the one table the README and docs quote."""
+    the measured costs of :mod:`vesicle.workflows.costs`, the one table the README and docs
+    quote."""
     configure_logging(logging.WARNING - 10 * min(verbose, 2))
 
 

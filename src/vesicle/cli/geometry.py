@@ -7,14 +7,14 @@ import json
 import click
 import numpy as np
 
-from ..parameters import Physics
-from ..solver import SolverError, default_tension_degree, solve_flow
-from ..sphere.rotation import rotation_matrix
-from ..stokes import LayerPotentials
-from ..surface import Shape, ShapeError
-from .base import fail as _fail
-from .base import main, with_version
-from .options import discretisation_options, physics_options
+from vesicle.cli.base import fail as _fail
+from vesicle.cli.base import main, with_version
+from vesicle.cli.options import discretisation_options, physics_options
+from vesicle.geometry.surface import Shape, ShapeError
+from vesicle.model.parameters import Physics
+from vesicle.solve.solver import SolverError, default_tension_degree, solve_flow
+from vesicle.sphere.rotation import rotation_matrix
+from vesicle.stokes import LayerPotentials
 
 
 def shape_summary(s: Shape) -> dict:

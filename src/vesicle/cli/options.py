@@ -1,14 +1,15 @@
 """Command-line options of the parameter objects: one default per parameter, read from the
-objects themselves (:class:`~vesicle.parameters.Physics`, :class:`~vesicle.parameters.
-Discretisation`, :data:`vesicle.dynamics.RUN_DEFAULTS`), and the objects built from them."""
+objects themselves (:class:`~vesicle.model.parameters.Physics`, :class:`~vesicle.model.parameters.
+Discretisation`, :data:`vesicle.dynamics.integrators.RUN_DEFAULTS`), and the objects built from
+them."""
 
 from __future__ import annotations
 
 import click
 
-from ..flows import FLOWS
-from ..parameters import METHODS, Discretisation, Physics
-from ..stokes.backends import BACKENDS
+from vesicle.model.flows import FLOWS
+from vesicle.model.parameters import METHODS, Discretisation, Physics
+from vesicle.stokes.backends import BACKENDS
 
 __all__ = ["discretisation_options", "make_discretisation", "make_physics", "physics_options"]
 
@@ -87,7 +88,8 @@ CONFIG_KEYS = {
 
 
 def config_option(fn):
-    """``--config FILE.toml``: the tables of :mod:`vesicle.config`; explicit options win."""
+    """``--config FILE.toml``: the tables of :mod:`vesicle.workflows.config`; explicit options
+    win."""
     return click.option(
         "--config",
         "config_path",

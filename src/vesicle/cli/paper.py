@@ -1,12 +1,13 @@
-"""``vesicle paper``: the seed paper's tables and figures as a report (:mod:`vesicle.paper`)."""
+"""``vesicle paper``: the seed paper's tables and figures as a report
+(:mod:`vesicle.workflows.paper`)."""
 
 from __future__ import annotations
 
 import click
 
-from ..costs import COSTS
-from ..paper import ITEMS, build_report
-from .base import check_scheduler, fail, interruptible, main
+from vesicle.cli.base import check_scheduler, fail, interruptible, main
+from vesicle.workflows.costs import COSTS
+from vesicle.workflows.paper import ITEMS, build_report
 
 
 @main.command("paper")

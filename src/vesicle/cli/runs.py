@@ -12,25 +12,8 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
-from ..analysis import summarize
-from ..branch_plots import is_branch_file, plot_branch
-from ..config import read_config, solver_from, to_toml
-from ..dynamics import INTEGRATORS, RUN_DEFAULTS, RunParameters
-from ..io import SERIES, RunData, read_run, write_text_atomically
-from ..parameters import SolverTolerances
-from ..phase_plots import is_neutral_file, plot_neutral
-from ..plots import plot_run
-from ..simulation import SimulationError, load_parameters, simulate
-from ..solver import SolverError
-from ..steady import NewtonError, steady_tank_treading
-from ..steady_io import is_steady_file, read_steady
-from ..steady_plots import plot_steady
-from ..study import plot_study, study_of_store
-from ..surface import ShapeError
-from ..sweep import SweepStore, is_sweep_store, runs_from_store
-from ..vtk import export_vtk
-from .base import check_output, command_line, fail, main, with_version
-from .options import (
+from vesicle.cli.base import check_output, command_line, fail, main, with_version
+from vesicle.cli.options import (
     apply_config,
     config_option,
     discretisation_options,
@@ -38,6 +21,23 @@ from .options import (
     make_physics,
     physics_options,
 )
+from vesicle.dynamics.integrators import INTEGRATORS, RUN_DEFAULTS, RunParameters
+from vesicle.dynamics.simulation import SimulationError, load_parameters, simulate
+from vesicle.geometry.diagnostics import summarize
+from vesicle.geometry.surface import ShapeError
+from vesicle.io.files import SERIES, RunData, read_run, write_text_atomically
+from vesicle.io.vtk import export_vtk
+from vesicle.model.parameters import SolverTolerances
+from vesicle.plots.branch import is_branch_file, plot_branch
+from vesicle.plots.phase import is_neutral_file, plot_neutral
+from vesicle.plots.runs import plot_run
+from vesicle.plots.steady import plot_steady
+from vesicle.solve.solver import SolverError
+from vesicle.steady.files import is_steady_file, read_steady
+from vesicle.steady.newton import NewtonError, steady_tank_treading
+from vesicle.workflows.config import read_config, solver_from, to_toml
+from vesicle.workflows.study import plot_study, study_of_store
+from vesicle.workflows.sweep import SweepStore, is_sweep_store, runs_from_store
 
 
 def _default(name: str):
@@ -49,7 +49,7 @@ def _default(name: str):
 _CSV_FIRST = ("t", "psi", "D", "L1", "L2", "L3", "bending_energy", "area", "volume", "S_xz",
               "N1", "N2", "dt", "outer_iterations", "inner_iterations")  # fmt: skip
 
-#: The CSV columns: those, then every other scalar series of :data:`vesicle.io.SERIES`.
+#: The CSV columns: those, then every other scalar series of :data:`vesicle.io.files.SERIES`.
 CSV_COLUMNS = _CSV_FIRST + tuple(
     name for name, (shape, *_) in SERIES.items() if shape == () and name not in _CSV_FIRST
 )

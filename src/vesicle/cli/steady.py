@@ -8,21 +8,11 @@ from pathlib import Path
 
 import click
 
-from ..branch import branch, reach
-from ..config import read_config
-from ..critical import critical_lambda, critical_summary
-from ..io import write_text_atomically
-from ..neutral import neutral_curve
-from ..neutral_io import Checkpoint, states_folder
-from ..parallel import executor
-from ..parameters import Physics
-from ..problem import JACOBIANS
-from ..ranges import parse_range
-from ..solver import SolverError
-from ..stability import stability
-from ..steady import ORIENTATIONS, UPDATES, NewtonError
-from ..steady_io import steady_summary, write_steady
-from .base import (
+from vesicle.bifurcation.branch import branch, reach
+from vesicle.bifurcation.checkpoint import Checkpoint, states_folder
+from vesicle.bifurcation.critical import critical_lambda, critical_summary
+from vesicle.bifurcation.neutral import neutral_curve
+from vesicle.cli.base import (
     check_output,
     check_scheduler,
     command_line,
@@ -31,7 +21,7 @@ from .base import (
     main,
     with_version,
 )
-from .options import (
+from vesicle.cli.options import (
     apply_config,
     config_option,
     discretisation_options,
@@ -39,6 +29,16 @@ from .options import (
     make_physics,
     physics_options,
 )
+from vesicle.io.files import write_text_atomically
+from vesicle.model.parameters import Physics
+from vesicle.parallel import executor
+from vesicle.ranges import parse_range
+from vesicle.solve.solver import SolverError
+from vesicle.steady.files import steady_summary, write_steady
+from vesicle.steady.newton import ORIENTATIONS, UPDATES, NewtonError
+from vesicle.steady.problem import JACOBIANS
+from vesicle.steady.stability import stability
+from vesicle.workflows.config import read_config
 
 
 def _executor(workers: int, scheduler: str | None):

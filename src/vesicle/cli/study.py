@@ -1,4 +1,4 @@
-"""``vesicle study NAME``: the paper's parametric studies (:mod:`vesicle.study`)."""
+"""``vesicle study NAME``: the paper's parametric studies (:mod:`vesicle.workflows.study`)."""
 
 from __future__ import annotations
 
@@ -6,10 +6,10 @@ import json
 
 import click
 
-from ..config import ConfigError
-from ..study import list_studies, run_study
-from .base import check_scheduler, fail, interruptible, main
-from .sweep import _progress_printer
+from vesicle.cli.base import check_scheduler, fail, interruptible, main
+from vesicle.cli.sweep import _progress_printer
+from vesicle.workflows.config import ConfigError
+from vesicle.workflows.study import list_studies, run_study
 
 
 @main.command("study")

@@ -1,4 +1,5 @@
-"""``vesicle sweep CONFIG.toml``: a task over a parameter grid on Dask (:mod:`vesicle.sweep`)."""
+"""``vesicle sweep CONFIG.toml``: a task over a parameter grid on Dask
+(:mod:`vesicle.workflows.sweep`)."""
 
 from __future__ import annotations
 
@@ -8,9 +9,9 @@ import sys
 
 import click
 
-from ..config import ConfigError
-from ..sweep import SweepStore, read_sweep_config, run_sweep
-from .base import check_scheduler, fail, interruptible, main
+from vesicle.cli.base import check_scheduler, fail, interruptible, main
+from vesicle.workflows.config import ConfigError
+from vesicle.workflows.sweep import SweepStore, read_sweep_config, run_sweep
 
 
 def _progress_printer():

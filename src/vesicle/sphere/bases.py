@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .grid import SphereGrid
-from .transforms import transform
+from vesicle.sphere.grid import SphereGrid
+from vesicle.sphere.transforms import transform
 
 __all__ = ["BASES", "FullBasis", "RealBasis", "SymmetricBasis", "basis"]
 

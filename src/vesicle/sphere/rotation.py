@@ -19,9 +19,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..caches import bounded_cache
-from .grid import SphereGrid, spherical_basis
-from .legendre import legendre_table
+from vesicle.caches import bounded_cache
+from vesicle.sphere.grid import SphereGrid, spherical_basis
+from vesicle.sphere.legendre import legendre_table
 
 __all__ = [
     "YRotation",

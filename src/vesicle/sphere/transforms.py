@@ -19,9 +19,9 @@ from typing import NamedTuple
 import ducc0
 import numpy as np
 
-from ..caches import bounded_cache
-from .grid import SphereGrid
-from .legendre import legendre_reference, legendre_table
+from vesicle.caches import bounded_cache
+from vesicle.sphere.grid import SphereGrid
+from vesicle.sphere.legendre import legendre_reference, legendre_table
 
 __all__ = [
     "Derivatives",

@@ -1,9 +1,9 @@
 """Stokes kernels and layer potentials with spectrally accurate singular quadrature (SPEC §5)."""
 
-from .evaluation import evaluate_double_layer, evaluate_single_layer
-from .kernels import stokeslet, stresslet
-from .operators import METHODS, LayerPotentials, double_layer, single_layer
-from .quadrature import SingularQuadrature, singular_quadrature
+from vesicle.stokes.evaluation import evaluate_double_layer, evaluate_single_layer
+from vesicle.stokes.kernels import stokeslet, stresslet
+from vesicle.stokes.operators import METHODS, LayerPotentials, double_layer, single_layer
+from vesicle.stokes.quadrature import SingularQuadrature, singular_quadrature
 
 __all__ = [
     "METHODS",

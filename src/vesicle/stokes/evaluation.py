@@ -5,16 +5,16 @@ accurate for targets well away from the surface; near it the kernel's peak is un
 the error grows like ``exp(-c d / h)`` with ``d`` the distance and ``h`` the grid spacing.
 ``upsample`` interpolates density and shape spectrally onto a finer grid first, which moves the
 accuracy boundary proportionally closer.  Measured on a unit sphere at 32 x 64 (see
-``docs/layer_potentials.md``).
+``docs/reference/layer-potentials.md``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..sphere.transforms import resize, transform
-from ..surface import Shape
-from .kernels import stokeslet_apply, stresslet_apply
+from vesicle.geometry.surface import Shape
+from vesicle.sphere.transforms import resize, transform
+from vesicle.stokes.kernels import stokeslet_apply, stresslet_apply
 
 __all__ = ["evaluate_double_layer", "evaluate_single_layer"]
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .kernels import PAIRS as KERNEL_PAIRS
+from vesicle.stokes.kernels import PAIRS as KERNEL_PAIRS
 
 __all__ = ["PAIRS", "ring_components", "ring_shape_difference", "scatter_rows"]
 

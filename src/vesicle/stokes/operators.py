@@ -28,13 +28,13 @@ from functools import cached_property
 import numpy as np
 from scipy.sparse.linalg import LinearOperator
 
-from ..blas import blas_threads
-from ..sphere.transforms import transform
-from ..surface import Shape
-from .backends import get_backend
-from .fused import ring_shape_difference
-from .kernels import stokeslet_apply, stresslet_apply
-from .quadrature import RingGeometry, SingularQuadrature, singular_quadrature
+from vesicle.blas import blas_threads
+from vesicle.geometry.surface import Shape
+from vesicle.sphere.transforms import transform
+from vesicle.stokes.backends import get_backend
+from vesicle.stokes.fused import ring_shape_difference
+from vesicle.stokes.kernels import stokeslet_apply, stresslet_apply
+from vesicle.stokes.quadrature import RingGeometry, SingularQuadrature, singular_quadrature
 
 __all__ = [
     "METHODS",

@@ -24,11 +24,11 @@ from functools import cached_property
 import ducc0
 import numpy as np
 
-from ..caches import bounded_cache
-from ..sphere.grid import SphereGrid, spherical_basis
-from ..sphere.legendre import legendre_table
-from ..sphere.rotation import rotation_matrix, y_rotation
-from ..sphere.transforms import real_matmul
+from vesicle.caches import bounded_cache
+from vesicle.sphere.grid import SphereGrid, spherical_basis
+from vesicle.sphere.legendre import legendre_table
+from vesicle.sphere.rotation import rotation_matrix, y_rotation
+from vesicle.sphere.transforms import real_matmul
 
 __all__ = ["RingGeometry", "SingularQuadrature", "singular_quadrature"]
 

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sphere.grid import spherical_basis
-from ..sphere.rotation import rotated_angles, rotation_matrix
-from ..sphere.transforms import evaluate, transform
-from ..surface import Shape
-from .kernels import stokeslet_apply, stresslet_apply
-from .quadrature import singular_quadrature
+from vesicle.geometry.surface import Shape
+from vesicle.sphere.grid import spherical_basis
+from vesicle.sphere.rotation import rotated_angles, rotation_matrix
+from vesicle.sphere.transforms import evaluate, transform
+from vesicle.stokes.kernels import stokeslet_apply, stresslet_apply
+from vesicle.stokes.quadrature import singular_quadrature
 
 __all__ = ["layer_potential_reference"]
 

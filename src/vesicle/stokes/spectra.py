@@ -50,8 +50,8 @@ def sphere_relaxation_rates(lmax: int, lam: float, sigma: float = 0.0) -> np.nda
     perturbation ``tau Y`` is fixed by ``div_s u = 0``; ``Gamma_l = -u . n``.  ``Gamma_0 =
     Gamma_1 = 0`` (volume, translation).  For large ``l``, ``Gamma_l ~ l^3 / (2 (1 + lam))``:
     the bending stiffness that limits explicit time steps.  Used as the approximate Jacobian of
-    the linearly implicit integrator (``vesicle.dynamics``); a negative ``sigma`` can make low
-    modes grow (``Gamma_l < 0``), which is physical (buckling).
+    the linearly implicit integrator (``vesicle.dynamics.integrators``); a negative ``sigma`` can
+    make low modes grow (``Gamma_l < 0``), which is physical (buckling).
     """
     l, m_w, m_v = _sphere_mobilities(lmax, lam)
     a, b = l * (l - 1), (l + 1) * (l + 2)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..fused import ring_components, scatter_rows
-from ..kernels import PAIRS
-from .registry import register_backend
+from vesicle.stokes.backends.registry import register_backend
+from vesicle.stokes.fused import ring_components, scatter_rows
+from vesicle.stokes.kernels import PAIRS
 
 __all__ = ["assemble_ring_numba"]
 

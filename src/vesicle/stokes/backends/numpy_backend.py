@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..kernels import PAIRS, stokeslet_pairs, stresslet_factor, stresslet_pairs
-from .registry import register_backend
+from vesicle.stokes.backends.registry import register_backend
+from vesicle.stokes.kernels import PAIRS, stokeslet_pairs, stresslet_factor, stresslet_pairs
 
 __all__ = ["assemble_ring_numpy", "ring_components_numpy"]
 

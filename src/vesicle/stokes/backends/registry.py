@@ -6,7 +6,8 @@ It is a callable
     assemble_ring(quad, shape, ring, kinds, out) -> None
 
 with ``quad`` the :class:`~vesicle.stokes.quadrature.SingularQuadrature`, ``shape`` the
-:class:`~vesicle.surface.Shape`, ``kinds`` a tuple of ``"single"`` / ``"double"`` and ``out`` the
+:class:`~vesicle.geometry.surface.Shape`, ``kinds`` a tuple of ``"single"`` / ``"double"`` and
+``out`` the
 preallocated transposed matrices ``out[kind]`` of shape (3 [density], 2 [Re, Im], T, 3 [output],
 rings, K) and, with the double layer, ``out["double_diagonal"]`` (rings, K, 3, 3), the singularity
 subtraction's diagonal ``-sum_q T n w J - 4 pi I``.

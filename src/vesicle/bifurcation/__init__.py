@@ -1,0 +1,10 @@
+"""Continuation and bifurcations of the steady states (SPEC §16).
+
+- ``continuation``: pseudo-arclength steps on any ``G(y, p) = 0``;
+- ``branch``: one-parameter branches with stability and special points, and ``reach`` (the
+  start strategy: Newton, else continuation from an easier point);
+- ``critical``: lambda_c at fixed (v, chi) by bracketing; ``neutral``: the neutral curve
+  lambda_c(chi); ``checkpoint``: a neutral curve's points kept as they are found.
+
+May import: :mod:`vesicle.steady` and everything below it.
+"""
