@@ -20,12 +20,11 @@ import logging
 import os
 from pathlib import Path
 
-from vesicle._version import __version__
 from vesicle.bifurcation.neutral import NeutralPoint
-from vesicle.io.files import write_text_atomically
+from vesicle.io.files import stamped, write_text_atomically
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.steady.files import read_steady, write_steady
-from vesicle.steady.stability import stability
+from vesicle.steady.stability import default_modes, stability
 
 __all__ = ["Checkpoint", "read_checkpoint", "state_path", "states_folder", "write_point_state"]
 
@@ -144,7 +143,7 @@ class Checkpoint:
         self.folder = Path(folder) if folder is not None else states_folder(self.out)
         self.physics, self.disc = physics, discretisation
         self.orientation, self.xtol, self.jacobian = orientation, float(xtol), jacobian
-        self.modes = modes or ("general" if orientation == "vorticity" else "symmetric")
+        self.modes = default_modes(orientation, modes)
         self.extra = dict(extra or {})
         self.found: list[dict] = []
 
@@ -168,9 +167,9 @@ class Checkpoint:
 
     def write_partial(self) -> None:
         physics = {k: x for k, x in self.physics.to_dict().items() if k not in ("lam", "chi")}
-        partial = {"vesicle_version": __version__, "v": self.physics.v,
+        partial = stamped({"v": self.physics.v,
                    "degree": self.disc.degree, "grid": self.disc.grid, "partial": True,
                    "xtol": self.xtol, "orientation": self.orientation, "modes": self.modes,
                    "physics": physics, **self.extra, "type_change": None,
-                   "points": sorted(self.found, key=lambda p: p["chi"])}  # fmt: skip
+                   "points": sorted(self.found, key=lambda p: p["chi"])})  # fmt: skip
         write_text_atomically(self.out, json.dumps(partial, indent=1))

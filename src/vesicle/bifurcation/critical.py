@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import brentq
 
-from vesicle._version import __version__
 from vesicle.bifurcation.branch import branch, reach
 from vesicle.geometry.surface import ShapeError
+from vesicle.io.files import stamped
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
@@ -311,8 +311,7 @@ def _search(
 def critical_summary(result: CriticalResult, physics: Physics, discretisation: Discretisation):
     """The JSON summary of a critical-lambda search (``vesicle critical --json``; a
     ``critical`` sweep's point), with the package version and the parameters."""
-    return {
-        "vesicle_version": __version__,
+    return stamped({
         "v": physics.v,
         "chi": physics.chi,
         "degree": discretisation.degree,
@@ -327,4 +326,4 @@ def critical_summary(result: CriticalResult, physics: Physics, discretisation: D
             "lambda_c": result.coarse.lambda_c,
             "evaluations": len(result.coarse.history),
         },
-    }
+    })

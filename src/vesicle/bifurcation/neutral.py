@@ -32,15 +32,15 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
-from vesicle._version import __version__
 from vesicle.bifurcation.branch import REAL_TOLERANCE, BranchPoint, SpecialPoint, branch, reach
 from vesicle.bifurcation.critical import critical_lambda, vorticity_start_lambda
 from vesicle.geometry.surface import ShapeError
+from vesicle.io.files import stamped
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, SteadyResult, steady_tank_treading
-from vesicle.steady.stability import stability
+from vesicle.steady.stability import default_modes, stability
 
 __all__ = ["NeutralCurve", "NeutralPoint", "neutral_curve"]
 
@@ -124,8 +124,7 @@ class NeutralCurve:
     resumed: int = 0  # points taken from a checkpoint (``known``), not traced again
 
     def to_dict(self) -> dict:
-        return {
-            "vesicle_version": __version__,
+        return stamped({
             "v": self.physics.v,
             "degree": self.discretisation.degree,
             "grid": self.discretisation.grid,
@@ -140,7 +139,7 @@ class NeutralCurve:
             "orientation": self.orientation,
             "modes": self.modes,
             "seconds": self.seconds,
-        }
+        })
 
 
 def _state_key(state: SteadyResult) -> tuple:
@@ -457,7 +456,7 @@ def neutral_curve(
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be a positive number, got {value}")
     if modes is None:
-        modes = "general" if orientation == "vorticity" else "symmetric"
+        modes = default_modes(orientation)
     if not isinstance(physics, Physics):
         physics = Physics(v=float(physics))
     chis = sorted({float(c) for c in chi})

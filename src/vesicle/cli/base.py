@@ -19,6 +19,7 @@ from pathlib import Path
 import click
 
 from vesicle._version import __version__
+from vesicle.io.files import stamped
 from vesicle.workflows.costs import command_help
 
 
@@ -80,8 +81,7 @@ def command_line(ctx: click.Context) -> str:
 
 def with_version(out: dict, **parameters) -> dict:
     """A ``--json`` object with ``vesicle_version`` and the given parameter objects' dicts."""
-    extra = {k: (v.to_dict() if hasattr(v, "to_dict") else v) for k, v in parameters.items()}
-    return {"vesicle_version": __version__, **extra, **out}
+    return stamped(out, **parameters)
 
 
 def check_output(

@@ -37,7 +37,7 @@ from vesicle.solve.solver import SolverError
 from vesicle.steady.files import steady_summary, write_steady
 from vesicle.steady.newton import ORIENTATIONS, UPDATES, NewtonError
 from vesicle.steady.problem import JACOBIANS
-from vesicle.steady.stability import stability
+from vesicle.steady.stability import default_modes, stability
 from vesicle.workflows.config import read_config
 
 
@@ -226,7 +226,7 @@ def critical(
                 max_iterations=max_iterations,
                 jacobian=jacobian,
                 orientation=orientation,
-                modes=modes or ("general" if orientation == "vorticity" else "symmetric"),
+                modes=default_modes(orientation, modes),
                 coarse="auto" if coarse else None,
             )
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
@@ -373,7 +373,7 @@ def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, o
         if states is not None:
             _check_states(states, [f"{name}_{x:.6g}.h5" for x in values], overwrite)
         with _executor(workers, scheduler) as pool:
-            modes = modes or ("general" if orientation == "vorticity" else "symmetric")
+            modes = default_modes(orientation, modes)
             b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
                        arclength=arclength, past_fold=past_fold, jacobian=jacobian,
                        progress=_echo_progress, modes=modes,

@@ -32,11 +32,14 @@ from __future__ import annotations
 import errno
 import gc
 import hashlib
+import io
 import json
 import logging
 import os
 import shutil
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from importlib import metadata
@@ -207,7 +210,7 @@ def content_checksum(run: RunData) -> str:
             h.update(str((value.dtype.str, value.shape)).encode())
             h.update(np.ascontiguousarray(value).tobytes())
         else:
-            h.update(json.dumps(_plain(value), sort_keys=True).encode())
+            h.update(json.dumps(plain(value), sort_keys=True).encode())
 
     for key in sorted(run.parameters):
         add("parameters/" + key, run.parameters[key])
@@ -219,17 +222,6 @@ def content_checksum(run: RunData) -> str:
     for key in sorted(run.checkpoint or {}):
         add("checkpoint/" + key, run.checkpoint[key])
     return h.hexdigest()
-
-
-def _plain(value):
-    """JSON-able form of attribute values as they read back (tuples as lists, NumPy scalars)."""
-    if isinstance(value, dict):
-        return {str(k): _plain(x) for k, x in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(x) for x in value]
-    if isinstance(value, np.generic):
-        return value.item()
-    return value
 
 
 def grid_coordinates(n_theta: int) -> dict[str, np.ndarray]:
@@ -334,6 +326,40 @@ def write_text_atomically(path: str | os.PathLike, text: str) -> Path:
         tmp.unlink(missing_ok=True)
         raise
     return path
+
+
+@contextmanager
+def text_written_atomically(path: str | os.PathLike) -> Iterator[io.StringIO]:
+    """A text buffer that replaces ``path`` at once when the block ends without an error (CSV
+    tables: ``csv.writer`` on it as on a file); nothing is written if the block raises."""
+    buffer = io.StringIO()
+    yield buffer
+    write_text_atomically(path, buffer.getvalue())
+
+
+def stamped(out: dict, **parameters) -> dict:
+    """The one stamp of a JSON output: ``vesicle_version``, then the given parameter objects
+    (their ``to_dict()``) or values, then ``out`` (``--json`` objects, sweep results, neutral
+    curves and their checkpoints, the steady summaries)."""
+    extra = {k: (v.to_dict() if hasattr(v, "to_dict") else v) for k, v in parameters.items()}
+    return {"vesicle_version": __version__, **extra, **out}
+
+
+def plain(value, nonfinite_as_none: bool = False):
+    """A JSON-able form of ``value``: dicts with string keys, lists for tuples and arrays,
+    Python scalars for NumPy ones; with ``nonfinite_as_none`` NaN and infinities become None
+    (strict JSON).  Checksums use the default, which keeps them as they were."""
+    if isinstance(value, dict):
+        return {str(k): plain(x, nonfinite_as_none) for k, x in value.items()}
+    if isinstance(value, list | tuple):
+        return [plain(x, nonfinite_as_none) for x in value]
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist(), nonfinite_as_none)
+    if isinstance(value, np.generic):
+        value = value.item()
+    if nonfinite_as_none and isinstance(value, float) and not np.isfinite(value):
+        return None
+    return value
 
 
 def write_atomically(path: str | os.PathLike, fill, nbytes: int) -> Path:
@@ -473,7 +499,7 @@ def open_run(path: str | os.PathLike):
     for key, value in run.fields.items():
         dims, long_name, units = FIELDS[key]
         data[key] = (("t", *dims), value, {"long_name": long_name, "units": units})
-    attrs = {k: json.dumps(_plain(v)) if isinstance(v, dict | list) else v
+    attrs = {k: json.dumps(plain(v)) if isinstance(v, dict | list) else v
              for k, v in run.parameters.items()}  # fmt: skip
     attrs.update({f"file_{k}": str(v) for k, v in run.attributes.items()})
     attrs.update({k: v for k, v in flat_parameters(run).items() if k not in attrs})

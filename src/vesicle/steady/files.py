@@ -36,9 +36,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from vesicle._version import __version__
 from vesicle.geometry.surface import Shape
-from vesicle.io.files import open_file, stamp, write_atomically
+from vesicle.io.files import open_file, stamp, stamped, write_atomically
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.rheology import ParticleStress
 from vesicle.steady.newton import NEWTON_TOLERANCES, SteadyResult
@@ -134,8 +133,7 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
     """The JSON summary of a steady state (what ``vesicle tt --json`` prints and a ``tt`` or
     ``stability`` sweep stores per point), with the package version and the parameters."""
     p, d = result.physics, result.discretisation
-    out = {
-        "vesicle_version": __version__,
+    out = stamped({
         "v": p.v, "lam": p.lam, "chi": p.chi, "flow_type": p.flow.name,
         "degree": d.degree, "grid": d.grid,
         "physics": p.to_dict(), "discretisation": d.to_dict(),
@@ -152,7 +150,7 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
         "solves": result.solves,
         "seconds": result.seconds,
         "start": result.start,
-    }  # fmt: skip
+    })  # fmt: skip
     if stability is not None:
         w_r, w_i = stability.most_unstable
         out.update({"modes": stability.basis, "omega_R": w_r, "omega_I": w_i,

@@ -35,9 +35,18 @@ import numpy as np
 from vesicle.sphere.bases import FullBasis
 from vesicle.steady.newton import SteadyResult
 
-__all__ = ["FullBasis", "StabilityResult", "stability"]
+__all__ = ["FullBasis", "StabilityResult", "default_modes", "stability"]
 
 log = logging.getLogger(__name__)
+
+
+def default_modes(orientation: str = "flow", modes: str | None = None) -> str:
+    """The perturbations analysed when none are asked for: the x-z symmetric ones on the in-plane
+    (``"flow"``) branch, the full basis on the vorticity-aligned one, whose instability breaks
+    that symmetry (SPEC §13).  The one place this default is decided."""
+    if modes is not None:
+        return modes
+    return "general" if orientation == "vorticity" else "symmetric"
 
 #: |curvature_shift| above which :func:`stability` warns that the resolution is too low for the
 #: multipliers to be negligible (measured: Table 1's state, v = 0.95, at N = 4 on 32x64 5.8e-3,

@@ -28,7 +28,7 @@ import numpy as np
 from vesicle.dynamics.integrators import RUN_DEFAULTS, RunParameters
 from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
 
-__all__ = ["SECTIONS", "ConfigError", "merge", "read_config", "to_toml"]
+__all__ = ["SECTIONS", "ConfigError", "merge", "read_config", "to_toml", "toml_text", "toml_value"]
 
 _NUMBER = (int, float)
 
@@ -172,14 +172,37 @@ def merge(config: dict, section: str, key: str, value, given: bool):
     return config.get(section, {}).get(key, value)
 
 
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
+def toml_value(value) -> str:
+    """One TOML value: booleans, strings (JSON escapes are TOML's), numbers, lists and inline
+    tables of those."""
+    if isinstance(value, bool | np.bool_):
         return "true" if value else "false"
     if isinstance(value, str):
         return json.dumps(value)
     if isinstance(value, int | float | np.number):
-        return repr(float(value)) if isinstance(value, float) else str(value)
-    return json.dumps(value)
+        return repr(float(value)) if isinstance(value, float | np.floating) else str(int(value))
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {toml_value(v)}" for k, v in value.items()) + "}"
+    raise TypeError(f"no TOML value for {type(value).__name__} {value!r}")
+
+
+def toml_text(tables: dict[str, dict], header: tuple[str, ...] = (),
+              notes: dict[str, str] | None = None) -> str:  # fmt: skip
+    """A TOML document of ``{table: {key: value}}``, with ``header`` comment lines first and a
+    comment after each key that ``notes`` describes; ``tomllib`` reads it back to equal values
+    (the one TOML writer of the package: run configs, study and report sweep configs)."""
+    lines = [f"# {line}" for line in header]
+    if lines:
+        lines.append("")
+    for section, table in tables.items():
+        lines.append(f"[{section}]")
+        for key, value in table.items():
+            note = (notes or {}).get(key)
+            lines.append(f"{key} = {toml_value(value)}" + (f"  # {note}" if note else ""))
+        lines.append("")
+    return "\n".join(lines)
 
 
 def to_toml(params: RunParameters, title: str = "vesicle run configuration") -> str:
@@ -198,12 +221,5 @@ def to_toml(params: RunParameters, title: str = "vesicle run configuration") -> 
         },
         "run": {k: getattr(params, k) for k in RUN_DEFAULTS},
     }
-    lines = [f"# {title}", "# Every key is optional; the command line overrides the file.", ""]
-    for section, table in tables.items():
-        lines.append(f"[{section}]")
-        for key, value in table.items():
-            note = _DESCRIPTIONS.get(key)
-            comment = f"  # {note}" if note else ""
-            lines.append(f"{key} = {_toml_value(value)}{comment}")
-        lines.append("")
-    return "\n".join(lines)
+    return toml_text(tables, (title, "Every key is optional; the command line overrides the file."),
+                     _DESCRIPTIONS)

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from vesicle._version import __version__
-from vesicle.io.files import write_text_atomically
+from vesicle.io.files import text_written_atomically, write_text_atomically
 from vesicle.model.published import (  # the paper's stated values: one home
     PAPER_FIT_AGREEMENT,
     PAPER_LABEL,
@@ -40,6 +40,7 @@ from vesicle.model.published import (  # the paper's stated values: one home
     PAPER_TYPE_CHANGE,
     TABLE1_PAPER,
 )
+from vesicle.workflows.config import toml_text
 
 __all__ = ["ITEMS", "Item", "build_report", "write_index"]
 
@@ -145,7 +146,7 @@ def _table1_row(v: float, lam: float, chi: float, n: int, grid: int, cache: str)
     w_r, w_i = stability(r).most_unstable
     row = {"v": v, "lam": lam, "chi": chi, "N": n, "grid": grid, "omega_R": w_r, "omega_I": w_i,
            "psi": r.psi, "D": r.D, "seconds": time.perf_counter() - t0}  # fmt: skip
-    path.write_text(json.dumps(row))
+    write_text_atomically(path, json.dumps(row))
     return row
 
 
@@ -286,7 +287,7 @@ def _neutral_item(
     vs_: list[float],
     key: str,
     orientation: str = "flow",
-    quick_chi: str = "[0.2, 0.5, 1.0, 3.0, 10.0]",
+    quick_chi: tuple[float, ...] = (0.2, 0.5, 1.0, 3.0, 10.0),
     quick_vs: list[float] | None = None,
     beside: str | None = None,
 ) -> Callable[[Path, bool, dict], dict]:
@@ -299,14 +300,14 @@ def _neutral_item(
         from vesicle.plots.phase import plot_neutral
         from vesicle.workflows.sweep import SweepStore, read_sweep_config, run_sweep
 
-        chi = quick_chi if quick else '"0.1:10"\npoints = 13'
         volumes = list(quick_vs or vs_) if quick else list(vs_)
         grid, degree = _resolution(quick)
         config = folder / f"{key}.toml"
-        config.write_text(f'[sweep]\ntask = "neutral"\nout = "{key}.h5"\n[grid]\n'
-                          f"v = {volumes}\n[task]\nchi = {chi}\n"
-                          f'orientation = "{orientation}"\n[discretisation]\n'
-                          f"degree = {degree}\ngrid = {grid}\n")  # fmt: skip
+        task = {"chi": list(quick_chi)} if quick else {"chi": "0.1:10", "points": 13}
+        write_text_atomically(config, toml_text({
+            "sweep": {"task": "neutral", "out": f"{key}.h5"}, "grid": {"v": volumes},
+            "task": {**task, "orientation": orientation},
+            "discretisation": {"degree": degree, "grid": grid}}))  # fmt: skip
         if options.get("draw_only"):  # redrawn after the items it draws beside (the store is
             store = SweepStore.open(read_sweep_config(config))  # complete, or as it is)
         else:
@@ -428,8 +429,9 @@ def _fig12(folder: Path, quick: bool, options: dict) -> dict:
 
     grid, degree = _resolution(quick)
     config = folder / "hopf.toml"
-    config.write_text('[sweep]\ntask = "critical"\nout = "hopf.h5"\n[grid]\nv = [0.95]\n'
-                      f"chi = [6.0]\n[discretisation]\ndegree = {degree}\ngrid = {grid}\n")
+    write_text_atomically(config, toml_text({
+        "sweep": {"task": "critical", "out": "hopf.h5"}, "grid": {"v": [0.95], "chi": [6.0]},
+        "discretisation": {"degree": degree, "grid": grid}}))  # fmt: skip
     hopf_config = read_sweep_config(config)
     studies = _study_item("periods-low-shear", "periods-high-shear", regimes_on="fig7")
     out = studies(folder, quick, options, extra=[hopf_config])  # the Hopf point alongside
@@ -454,7 +456,7 @@ def _fig8_branch(path: str, grid: int, degree: int) -> None:
 
     b = branch(Physics(v=0.95, chi=0.2), Discretisation(grid, degree), "lam", FIG8_LAMS)
     data = {**b.to_dict(all_points=True), "physics": {"v": 0.95, "chi": 0.2}}
-    Path(path).write_text(json.dumps(data))
+    write_text_atomically(path, json.dumps(data))
 
 
 def _fig8(folder: Path, quick: bool, options: dict) -> dict:
@@ -508,7 +510,7 @@ def _fig9_compute(folder: str, grid: int, degree: int) -> None:
     params = _fig9_parameters(grid, degree)
     simulate(params, start=r.shape.perturbed(0.01, seed=4, degree=degree),
              out=Path(folder) / "run.h5")  # fmt: skip
-    (Path(folder) / "stability.json").write_text(json.dumps({"omega": [w_r, w_i]}))
+    write_text_atomically(Path(folder) / "stability.json", json.dumps({"omega": [w_r, w_i]}))
 
 
 def _fig9_parameters(grid: int, degree: int):
@@ -698,7 +700,7 @@ ITEMS: list[Item] = [
          # with the fold part, chi = 0.2 ... 10 and the type change located: 23 min for v = 0.95,
          # 31 min for 0.90, and v = 0.85 unresolved at that degree; from chi = 0.5: 5.4 and about
          # 18 min, chi = 0.5 being a fold at v = 0.90; the fold itself is fig8's)
-         _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi="[1.0, 3.0, 10.0]",
+         _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi=(1.0, 3.0, 10.0),
                        quick_vs=[0.95, 0.90]), cost=100),
     Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8,
          cost=120),
@@ -720,7 +722,7 @@ ITEMS: list[Item] = [
     Item("fig22", "Figure 22",
          "neutral curves of the vorticity-aligned branch (dashed) beside the in-plane ones",
          _neutral_item([0.95, 0.90], "neutral", orientation="vorticity",
-                       quick_chi="[2.0, 4.0, 8.0]", quick_vs=[0.95], beside="fig7"),
+                       quick_chi=(2.0, 4.0, 8.0), quick_vs=[0.95], beside="fig7"),
          uses=("fig7",), cost=50),
     Item("fig23", "Figures 23, 24", "tilted starts: orbits of the principal axes", _fig23,
          cost=430),
@@ -730,7 +732,7 @@ ITEMS: list[Item] = [
 # ------------------------------------------------------------------------ driver
 def _write_csv(path: Path, rows: list[dict]) -> str:
     keys = list(dict.fromkeys(k for r in rows for k in r))
-    with path.open("w", newline="") as f:
+    with text_written_atomically(path) as f:
         writer = csv.DictWriter(f, fieldnames=keys)
         writer.writeheader()
         writer.writerows(rows)
@@ -1194,5 +1196,5 @@ def write_index(outdir: Path, items: list[Item], quick: bool) -> Path:
     parts += body
     parts.append("</body></html>")
     page = outdir / "index.html"
-    page.write_text("\n".join(parts))
+    write_text_atomically(page, "\n".join(parts))
     return page

@@ -41,9 +41,10 @@ from pathlib import Path
 
 import numpy as np
 
+from vesicle.io.files import text_written_atomically, write_text_atomically
 from vesicle.model.published import PAPER_LABEL, PAPER_LAMBDA_C_CHI1, PAPER_PERIOD_EXPONENT
 from vesicle.model.theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
-from vesicle.workflows.config import ConfigError
+from vesicle.workflows.config import ConfigError, toml_text
 from vesicle.workflows.costs import study_cost
 from vesicle.workflows.sweep import SweepConfig, SweepStore, read_sweep_config, run_sweeps
 
@@ -128,29 +129,15 @@ def load_study(
     return study, data
 
 
-def _toml(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(value)
-
-
 def _write_config(study: dict, tables: dict, folder: Path) -> Path:
     """The study as a sweep config in ``folder`` (its store beside it)."""
     tables = {**tables, "sweep": {**tables.get("sweep", {}), "out": f"{study['name']}.h5"}}
     meta = {k: v for k, v in study.items() if k not in ("source",)}
-    lines = [f"# {study.get('title', study['name'])}",
-             f"# written by vesicle study from {study['source']}"
-             + (" (--quick)" if study["quick"] else ""), ""]  # fmt: skip
-    for name, table in [("study", meta), *tables.items()]:
-        lines.append(f"[{name}]")
-        lines.extend(f"{k} = {_toml(v)}" for k, v in table.items())
-        lines.append("")
+    header = (study.get("title", study["name"]),
+              f"written by vesicle study from {study['source']}"
+              + (" (--quick)" if study["quick"] else ""))  # fmt: skip
     path = folder / f"{study['name']}.toml"
-    path.write_text("\n".join(lines))
+    write_text_atomically(path, toml_text({"study": meta, **tables}, header))
     return path
 
 
@@ -373,7 +360,7 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
         return _plot_series(store, study, folder)
     rows = study_rows(store, study)
     table = folder / f"{study['name']}.csv"
-    with table.open("w", newline="") as f:
+    with text_written_atomically(table) as f:
         if rows:
             writer = csv.DictWriter(f, fieldnames=list(rows[0]))
             writer.writeheader()
@@ -415,7 +402,7 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
         extra += mark(axes, ys, rows, study, fits)
     _legend(fig, axes, extra)
     if fits:
-        (folder / f"{study['name']}_fit.json").write_text(json.dumps(fits, indent=1))
+        write_text_atomically(folder / f"{study['name']}_fit.json", json.dumps(fits, indent=1))
     d = store_discretisation(store)
     label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
              + (", quick" if study.get("quick") else ""))  # fmt: skip
@@ -449,7 +436,7 @@ def _plot_series(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Pa
             runs.append((record["result"], read_run(path)))
     runs.sort(key=lambda r: (r[0]["chi"], r[0]["lam"]))
     table = folder / f"{study['name']}.csv"
-    with table.open("w", newline="") as f:
+    with text_written_atomically(table) as f:
         writer = csv.writer(f)
         writer.writerow(["v", "lam", "chi", "regime", "period", "t_final", "stopped"])
         for r, _ in runs:
@@ -622,7 +609,7 @@ def _plot_maps(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path
                    if r.get("status") == "done" and r.get("result")),
                   key=lambda m: (m["chi"], m["lam"]))  # fmt: skip
     table = folder / f"{study['name']}.csv"
-    with table.open("w", newline="") as f:
+    with text_written_atomically(table) as f:
         writer = csv.writer(f)
         writer.writerow(["state_lam", "state_chi", "state_psi", "psi", "lam", *study["y"]])
         for m in maps:

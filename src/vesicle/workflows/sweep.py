@@ -63,7 +63,6 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from vesicle._version import __version__
 from vesicle.bifurcation.branch import PARAMETERS, branch, reach
 from vesicle.bifurcation.checkpoint import Checkpoint
 from vesicle.bifurcation.critical import critical_lambda, critical_summary
@@ -71,14 +70,14 @@ from vesicle.bifurcation.neutral import neutral_curve
 from vesicle.dynamics.integrators import RunParameters
 from vesicle.dynamics.simulation import load_parameters, simulate
 from vesicle.geometry.diagnostics import diagnose, summarize
-from vesicle.io.files import open_file, read_run, stamp, write_atomically
+from vesicle.io.files import open_file, plain, read_run, stamp, stamped, write_atomically
 from vesicle.model.parameters import Discretisation, Physics, stable_key
 from vesicle.parallel import close_cluster, local_cluster
 from vesicle.ranges import parse_range
 from vesicle.solve.ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
 from vesicle.steady.files import steady_summary
 from vesicle.steady.newton import ORIENTATIONS
-from vesicle.steady.stability import stability
+from vesicle.steady.stability import default_modes, stability
 from vesicle.workflows.config import SECTIONS, ConfigError, solver_from
 
 __all__ = [
@@ -115,7 +114,7 @@ def _newton(options: dict) -> dict:
 
 def _default_modes(options: dict) -> str:
     """The vorticity-aligned branch loses stability to modes breaking the x-z symmetry."""
-    return "general" if options.get("orientation") == "vorticity" else "symmetric"
+    return default_modes(options.get("orientation", "flow"))
 
 
 def _stability(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
@@ -147,8 +146,8 @@ def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dic
         for p in result["points"]:
             shape = equivalent_ellipsoid(p["axes"], p["axis_directions"], disc.grid)
             p["ellipsoid"] = flow_stress(shape, [p["lam"]])[0].summary()
-    return {"vesicle_version": __version__, "physics": fixed, "discretisation": disc.to_dict(),
-            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result}  # fmt: skip
+    return stamped({"physics": fixed, "discretisation": disc.to_dict(),
+            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result})  # fmt: skip
 
 
 #: settings that name folders of the points' files (not part of what a store's points share)
@@ -196,12 +195,12 @@ def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settin
     psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)), "[task] psi")
     lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)), "[task] lams")
     m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid)
-    return {"vesicle_version": __version__, "physics": physics.to_dict(),
+    return stamped({"physics": physics.to_dict(),
             "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
             "chi": physics.chi, "state": {"psi": state.psi, "axes": d.lengths.tolist(),
                                           "axis_directions": d.axes.tolist()},
             "map_psi": m["psi"].tolist(), "map_lam": m["lam"].tolist(),
-            **{k: np.asarray(m[k]).tolist() for k in ("S_xz", "N1", "N2")}}  # fmt: skip
+            **{k: np.asarray(m[k]).tolist() for k in ("S_xz", "N1", "N2")}})  # fmt: skip
 
 
 def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
@@ -229,9 +228,9 @@ def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) 
                 else:
                     path.unlink()
     run = simulate(params, out=path, resume=resume)
-    return {"vesicle_version": __version__, "physics": physics.to_dict(),
+    return stamped({"physics": physics.to_dict(),
             "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
-            "chi": physics.chi, **summarize(run)}  # fmt: skip
+            "chi": physics.chi, **summarize(run)})  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -605,7 +604,7 @@ def run_point(task: str, physics: dict, disc: dict, options: dict, settings: dic
         result = TASKS[task].function(
             Physics.from_dict(physics), Discretisation.from_dict(disc), options, settings
         )
-        entry = {"status": "done", "result": _plain(result)}
+        entry = {"status": "done", "result": plain(result, nonfinite_as_none=True)}
         short = TASKS[task].incomplete(result)
         if short is not None:  # what it found is kept; the point counts as failed (a rerun
             # tries it again)
@@ -620,20 +619,6 @@ def run_point(task: str, physics: dict, disc: dict, options: dict, settings: dic
         finished=datetime.now(UTC).isoformat(timespec="seconds"),
     )
     return entry
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, float) and not np.isfinite(value):
-        return None
-    return value
 
 
 def _client(workers: int | None, scheduler: str | None) -> tuple:
