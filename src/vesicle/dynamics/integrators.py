@@ -85,7 +85,7 @@ ROS2_GAMMA = 1.0 + 1.0 / np.sqrt(2.0)
 #: error ``sum (b_i - b_hat_i) k_i``.  Entries: (gamma, alpha, gamma_ij (strictly lower), b,
 #: b_hat, order of the error estimate's local error).  ROS34PW2: Rang & Angermann, BIT 45 (2005)
 #: 761-787, Table 4.2; its orders (3 and 2 for an arbitrary W) are checked numerically in
-#: tests/test_simulation.py.
+#: tests/dynamics/test_simulation.py.
 ROSW_TABLEAUS = {
     "ros34pw2": (
         4.3586652150845900e-01,

@@ -1,11 +1,11 @@
 """The measured costs that the README, the docs and the CLI's help quote (issue 38).
 
 One table, so that the figures cannot drift apart: ``vesicle --help``, ``vesicle paper --help``
-and ``vesicle study --list`` are built from it, and ``tests/test_costs.py`` checks that the
-README and the docs quote exactly these figures wherever they quote the cost of one of these
-commands. To update a cost: measure it, change its entry here (figure, measured value, date,
-source), change the sentence in the doc it comes from, and run ``tests/test_costs.py``: it names
-every place that still quotes the old figure.
+and ``vesicle study --list`` are built from it, and ``tests/workflows/test_costs.py`` checks
+that the README and the docs quote exactly these figures wherever they quote the cost of one of
+these commands. To update a cost: measure it, change its entry here (figure, measured value,
+date, source), change the sentence in the doc it comes from, and run
+``tests/workflows/test_costs.py``: it names every place that still quotes the old figure.
 
 Every figure is a measurement stated in the docs or in the git log; none is estimated here.
 Where two sources disagree, the one measured most recently is taken, and the comment of the

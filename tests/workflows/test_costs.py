@@ -15,7 +15,7 @@ from vesicle.cli import main
 from vesicle.workflows.costs import COSTS, STUDY_COSTS, study_cost
 from vesicle.workflows.study import list_studies, load_study
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _text(path: str) -> str:
