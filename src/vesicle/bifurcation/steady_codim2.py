@@ -1,0 +1,196 @@
+"""The steady tank-treading equations as a two-parameter problem of :mod:`.codim2`, and the
+neutral curve traced on it: the Hopf curve and the fold curve of the steady states in the
+``(chi, lambda)`` plane at fixed ``v``, joined at their Bogdanov–Takens point (issue 40).
+
+The problem
+-----------
+Unknowns ``x = (a, mu)``: the shape's basis coordinates and the two multipliers of the area and
+volume constraints (SPEC §8); parameters ``p = (log chi, lambda)`` (the log keeps both O(1)
+for the continuation's unit weights).  The residual is the steady problem's
+``G = (adot(a) - mu . g, A - A0, V - V0)`` and its Jacobian the Newton matrix
+
+    G_y = [[M - mu . H, -g^T], [g, 0]]
+
+(``M = d adot / d a`` linearised, ``g`` the constraint gradients, ``H`` their Hessians), with
+the mass matrix ``B = diag(I, 0, 0)``: the finite eigenvalues of the pencil ``(G_y, B)`` are the
+growth rates of the linearised dynamics held on the constraints (the ``curvature=True`` form of
+:func:`vesicle.steady.stability.stability`).  A fold of this system is where the branch of steady
+states turns; a Hopf point where a complex pair of that pencil crosses the axis.
+
+SPEC §9's stability operator ``Q^T M Q`` leaves out the multipliers' curvature ``mu . H``; the
+two forms differ by the state's ``curvature_shift`` (1.5e-3 in the growth rate at N = 8, 5.8e-3
+at N = 4 at Table 1's state), which vanishes with the resolution.  The neutral curve here is that
+of the system whose fold is the branch's turning point; see docs/reference/codim2.md.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from vesicle.bifurcation import codim2
+from vesicle.model.parameters import Discretisation, Physics
+from vesicle.steady.newton import NEWTON_TOLERANCES, SteadyResult
+from vesicle.steady.problem import SteadyProblem
+
+__all__ = ["FORMS", "SteadyEquations"]
+
+#: The Jacobian the curves are defined by: ``"curvature"``, the Newton matrix with the
+#: multipliers' curvature (its fold is exactly where the branch of steady states turns), or
+#: ``"spec"``, SPEC §9's operator without it (``Q^T M Q`` on the constraints' tangent space:
+#: what ``vesicle critical`` and the one-parameter tracer bracket).  With ``"spec"`` Newton on
+#: ``G = 0`` runs on a Jacobian off by ``mu . H`` (small: its convergence is linear with that
+#: rate) and the fold curve is that of the real crossings of SPEC §9's operator.
+FORMS = ("curvature", "spec")
+
+log = logging.getLogger(__name__)
+
+
+class SteadyEquations(codim2.Problem):
+    """The steady equations at fixed ``v`` (and flow) as a :class:`codim2.Problem` in
+    ``p = (log chi, lambda)``.
+
+    Each parameter point gets one :class:`SteadyProblem`, kept while the continuation stays
+    there, so that a residual and the Jacobian at the same point share one assembly of the
+    layer potentials (the problem keeps those of its last shape)."""
+
+    def __init__(
+        self,
+        physics: Physics,
+        discretisation: Discretisation,
+        *,
+        modes: str = "symmetric",
+        jacobian: str = "linearised",
+        form: str = "curvature",
+    ):
+        if form not in FORMS:
+            raise ValueError(f"form must be one of {FORMS}, got {form!r}")
+        self.physics, self.discretisation = physics, discretisation
+        self.modes, self.jacobian_method, self.form = modes, jacobian, form
+        self._kept: tuple[tuple[float, float], SteadyProblem] | None = None
+        self._sigma = None
+        probe = self.problem_at((math.log(physics.chi), physics.lam))
+        self.size = probe.basis.size
+        mass = np.eye(self.size + 2)
+        mass[-2:, -2:] = 0.0
+        self.mass = mass
+
+    # ------------------------------------------------------------------ points
+    def physics_at(self, p) -> Physics:
+        return self.physics.replace(chi=float(math.exp(p[0])), lam=float(p[1]))
+
+    def problem_at(self, p) -> SteadyProblem:
+        key = (float(p[0]), float(p[1]))
+        if self._kept is None or self._kept[0] != key:
+            problem = SteadyProblem(self.physics_at(key), self.discretisation, NEWTON_TOLERANCES,
+                                    modes=self.modes,
+                                    jacobian_method=self.jacobian_method)  # fmt: skip
+            self._kept = (key, problem)
+        return self._kept[1]
+
+    @staticmethod
+    def state(steady: SteadyResult) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, p)`` of a converged steady state."""
+        x = np.concatenate([steady.a, steady.multipliers])
+        return x, np.array([math.log(steady.physics.chi), steady.physics.lam])
+
+    # --------------------------------------------------------------- equations
+    def residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        P = self.problem_at(p)
+        a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
+        shape = P.shape(a)
+        rate, flow = P.adot(a, self._sigma)
+        self._sigma = flow.sigma
+        G, _ = P.residual(shape, rate, mu, P.gradients(shape))
+        return G
+
+    def jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        P = self.problem_at(p)
+        a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
+        M, _ = P.jacobian(a, sigma0=self._sigma)
+        g = P.gradients(P.shape(a))
+        H = P.constraint_hessians(a) if self.form == "curvature" else None
+        n = M.shape[0]
+        J = np.zeros((n + 2, n + 2))
+        J[:n, :n] = M - np.einsum("k,kij->ij", mu, H) if self.form == "curvature" else M
+        J[:n, n:], J[n:, :n] = -g.T, g
+        return J
+
+
+@dataclass(frozen=True)
+class NeutralPointC2:
+    """A point of the neutral curve solved for on its augmented system."""
+
+    chi: float
+    lambda_c: float
+    bifurcation: str  # "hopf" or "saddle-node"
+    omega_R: float
+    located: bool
+    residual: float
+    other_unstable: bool
+
+    def to_dict(self) -> dict:
+        return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
+                "omega_R": self.omega_R, "located": self.located, "residual": self.residual,
+                "other_unstable": self.other_unstable}  # fmt: skip
+
+
+def curve_points(curve: codim2.Curve, kind: str) -> list[NeutralPointC2]:
+    """The points of a fold or Hopf curve as neutral-curve points."""
+    out = []
+    for q in curve.points:
+        omega = float(q.omega) if kind == "hopf" and q.omega is not None else 0.0
+        out.append(NeutralPointC2(chi=float(math.exp(q.p[0])), lambda_c=float(q.p[1]),
+                                  bifurcation=kind, omega_R=omega, located=bool(q.converged),
+                                  residual=float(q.residual),
+                                  other_unstable=bool(q.other_unstable)))  # fmt: skip
+    return out
+
+
+@dataclass
+class Codim2Trace:
+    """What :func:`trace_from_hopf` found: the Hopf curve, the fold curve, the special points."""
+
+    hopf: list[codim2.Curve] = field(default_factory=list)
+    fold: list[codim2.Curve] = field(default_factory=list)
+    special: list[codim2.SpecialPoint] = field(default_factory=list)
+
+
+def trace_from_hopf(
+    equations: SteadyEquations,
+    steady: SteadyResult,
+    *,
+    chi_range: tuple[float, float] = (0.1, 10.0),
+    lam_range: tuple[float, float] = (0.5, 50.0),
+    max_points: int = 60,
+    settings: codim2.Settings | None = None,
+    progress: Callable[[codim2.CurvePoint], None] | None = None,
+) -> Codim2Trace:
+    """The neutral curve from a steady state near a Hopf point (one-parameter branch in
+    lambda): the Hopf point located, the Hopf curve continued both ways in chi, and from a
+    Bogdanov–Takens point at its end the fold curve on to ``chi_range[0]``."""
+    x, p = equations.state(steady)
+    start = codim2.locate_hopf(equations, x, p, free=1, settings=settings)
+    if not start.converged:
+        raise RuntimeError(f"the Hopf point near lam = {p[1]:.6g} did not converge "
+                           f"(residual {start.residual:.2e})")  # fmt: skip
+    bounds = [[math.log(chi_range[0]), math.log(chi_range[1])], list(lam_range)]
+    out = Codim2Trace()
+    for direction in ((1.0, 0.0), (-1.0, 0.0)):
+        curve = codim2.hopf_curve(equations, start, direction=direction, bounds=bounds,
+                                  max_points=max_points, settings=settings,
+                                  progress=progress)  # fmt: skip
+        out.hopf.append(curve)
+        for s in curve.special:
+            out.special.append(s)
+            if s.kind == "bt" and s.located:
+                fold = codim2.fold_curve(equations, s, direction=(-1.0, 0.0), bounds=bounds,
+                                         max_points=max_points, settings=settings,
+                                         progress=progress)  # fmt: skip
+                out.fold.append(fold)
+                out.special.extend(fold.special)
+    return out
