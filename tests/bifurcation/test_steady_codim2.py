@@ -70,3 +70,21 @@ def test_the_parameters_are_log_chi_and_lambda(state):
     assert eq.physics_at(p) == state.physics
     with pytest.raises(ValueError, match="form"):
         SteadyEquations(state.physics, TINY, form="other")
+
+
+def test_a_hopf_point_located_on_the_augmented_system_is_the_bracketed_lambda_c():
+    """v = 0.95, chi = 3.162, N = 4 on 16x32: the Hopf point solved for on the minimally
+    augmented system (SPEC 9's operator) against lambda_c by Brent's method on the leading
+    growth rate of vesicle.steady.stability (vesicle.bifurcation.critical, xtol 1e-3: 8.59004,
+    docs/notes/continuation-measurements.md; the one-parameter tracer gave 8.59007).  Measured:
+    8.590038, located in 3 Newton iterations."""
+    disc = vs.Discretisation(grid=16, degree=4)
+    physics = vs.Physics(v=0.95, lam=8.57, chi=3.162)
+    eq = SteadyEquations(physics, disc, form="spec")
+    x, p = eq.state(vs.steady_tank_treading(physics, disc))
+    settings = codim2.Settings(ftol=1e-8, step_tol=1e-6, newton_differences="central")
+    point = codim2.locate_hopf(eq, x, p, free=1, settings=settings)
+    assert point.converged and point.residual < 1e-8
+    assert point.p[1] == pytest.approx(8.59004, abs=1e-3)
+    assert math.exp(point.p[0]) == pytest.approx(3.162, rel=1e-12)  # chi held
+    assert point.omega > 0.5 and not point.other_unstable
