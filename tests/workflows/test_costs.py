@@ -54,7 +54,7 @@ QUOTES = [
     ("docs/howto/steady-states.md", "critical",
      r"`vesicle critical --v 0\.95 --chi 1` (\S+ s) from its default"),
     ("docs/howto/steady-states.md", "critical_no_coarse", r"`--no-coarse` ([\d.]+ min)"),
-    ("docs/howto/running.md", "run_default", r"ψ = 0\.5648, in about (\d+ min) on 2 cores"),
+    ("docs/howto/running.md", "run_default", r"ψ = 0\.5648, in about (\d+ min(?: \d+ s)?) on 2 cores"),
     ("docs/howto/running.md", "run_ros2", r"reference ψ: (\S+ s) with ROS2"),
     ("docs/howto/running.md", "run_ros34pw2", r"(\S+ s) with `--integrator ros34pw2"),
     ("docs/howto/continuation.md", "continuation_step",

@@ -107,7 +107,7 @@ INTEGRATORS = ("ros2", *ROSW_TABLEAUS, *TABLEAUS)
 
 #: The run's own settings (everything but physics, discretisation and solver tolerances), with
 #: their defaults.
-#: The defaults make ``vesicle run`` alone a physical result in about 2 min on 2 cores: the
+#: The defaults make ``vesicle run`` alone a physical result in about 1 min 10 s on 2 cores: the
 #: default point (v = 0.95, lam = 1, chi = 1, N = 8 on 32 x 64) from the spheroid settles on
 #: tank-treading by t = 2.85 (psi = 0.5648), where the run stops (``steady_tol``).  ROS34PW2
 #: at rtol 1e-3 reaches psi within 1e-4 of a tight reference with a third to a tenth of ROS2's

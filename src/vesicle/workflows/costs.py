@@ -102,13 +102,13 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
     ),
     # The README's quick-start command 1 (the default run: v = 0.95, lam = 1, chi = 1, N = 8 on
     # 32x64, ROS34PW2 at rtol 1e-3, until settled on TT at t = 2.85). Remeasure when the default
-    # run changes. 103 s without the figures, with a report job on the other core (2026-12-06).
+    # run changes. 71 s on a fresh clone, figures included, alone (103 s beside another job).
     "run_default": Cost(
         command="vesicle run",
-        figure="2 min",
+        figure="1 min 10 s",
         resolution="the default run: N = 8 on 32x64, v = 0.95, lam = 1, chi = 1, until it "
                    "settles on tank-treading (t = 2.85)",
-        measured="103 s (no figures; another job on the other core)",
+        measured="71 s (fresh clone, figures included, nothing else running)",
         when="2026-12-06; the install is not included",
         source="issue 38's session (measured with /usr/bin/time)",
     ),
