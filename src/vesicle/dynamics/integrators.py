@@ -100,9 +100,16 @@ ROSW_TABLEAUS = {
     ),
 }  # fmt: skip
 
-#: Integrators by name: the linearly implicit W-methods (ROS2 and ``ROSW_TABLEAUS``) and the
-#: explicit pairs of ``TABLEAUS``.
-INTEGRATORS = ("ros2", *ROSW_TABLEAUS, *TABLEAUS)
+#: The registry of integrators: name -> family (the :class:`Integrator` methods
+#: ``_setup_<family>`` and ``_step_<family>`` that realise it): ROS2, the Rosenbrock-W methods
+#: of ``ROSW_TABLEAUS`` and the explicit pairs of ``TABLEAUS``.  A new tableau is one entry of
+#: its table; a new family one pair of methods and its names here.
+SCHEMES: dict[str, str] = {"ros2": "ros2", **dict.fromkeys(ROSW_TABLEAUS, "rosw"),
+                           **dict.fromkeys(TABLEAUS, "rk")}  # fmt: skip
+
+#: Integrators by name (the CLI's choices): the linearly implicit W-methods (ROS2 and
+#: ``ROSW_TABLEAUS``) and the explicit pairs of ``TABLEAUS``.
+INTEGRATORS = tuple(SCHEMES)
 
 
 #: The run's own settings (everything but physics, discretisation and solver tolerances), with
@@ -369,19 +376,9 @@ class Integrator:
 
     def __init__(self, params: RunParameters):
         self.params = params
-        if params.integrator == "ros2":
-            self.order, self.fsal = 2, False
-        elif params.integrator in ROSW_TABLEAUS:
-            self.gamma, self.alpha, self.gammas, b, b_hat, order = ROSW_TABLEAUS[
-                params.integrator
-            ]
-            self.b, self.e = np.array(b), np.array(b) - np.array(b_hat)
-            self.order, self.fsal = order, False
-        else:
-            c, A, b, b_hat, order, fsal = TABLEAUS[params.integrator]
-            self.c, self.A, self.b = c, A, np.array(b)
-            self.e = np.array(b) - np.array(b_hat)
-            self.order, self.fsal = order, fsal
+        family = SCHEMES[params.integrator]
+        getattr(self, f"_setup_{family}")(params.integrator)
+        self._step = getattr(self, f"_step_{family}")
         self.tolerances = params.solver
         self.previous_error = 1.0  # of the last accepted step, for the PI controller
         self.start_up = False  # set for a run's first step (see _next_dt)
@@ -424,11 +421,23 @@ class Integrator:
 
     def step(self, y: np.ndarray, dt: float, first: Evaluation) -> StepResult:
         """Try one step of size ``dt`` from ``y``, where ``first`` is the evaluation at ``y``."""
-        if self.params.integrator == "ros2":
-            return self._step_ros2(y, dt, first)
-        if self.params.integrator in ROSW_TABLEAUS:
-            return self._step_rosw(y, dt, first)
-        return self._step_rk(y, dt, first)
+        return self._step(y, dt, first)
+
+    # The families of SCHEMES: each a ``_setup_<family>(name)`` (the tableau's arrays and the
+    # order) and a ``_step_<family>(y, dt, first)``.
+    def _setup_ros2(self, name: str) -> None:
+        self.order, self.fsal = 2, False
+
+    def _setup_rosw(self, name: str) -> None:
+        self.gamma, self.alpha, self.gammas, b, b_hat, order = ROSW_TABLEAUS[name]
+        self.b, self.e = np.array(b), np.array(b) - np.array(b_hat)
+        self.order, self.fsal = order, False
+
+    def _setup_rk(self, name: str) -> None:
+        c, A, b, b_hat, order, fsal = TABLEAUS[name]
+        self.c, self.A, self.b = c, A, np.array(b)
+        self.e = np.array(b) - np.array(b_hat)
+        self.order, self.fsal = order, fsal
 
     def stiffness(self, first: Evaluation) -> np.ndarray:
         """The approximate Jacobian's rates ``Gamma_l >= 0`` at the evaluation ``first``: the unit
