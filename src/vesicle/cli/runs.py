@@ -467,39 +467,49 @@ def plot(file, outdir, others, runs_store) -> None:
     branch_omega) or of neutral curves of ``vesicle neutral --out`` (phase_diagram,
     phase_SLambda; with --runs, the regimes of a sweep of runs on both)."""
     folder = outdir or Path(file).with_suffix("")
-    if is_sweep_store(file):
-        _plot_sweep(file, folder, others, runs_store)
-        return
-    if is_neutral_file(file):
-        _plot_curves([json.loads(Path(file).read_text())], folder, others, runs_store)
-        return
-    if others or runs_store:
+    kind, draw = next((k, d) for k, (is_kind, d) in FILE_KINDS.items() if is_kind(file))
+    if (others or runs_store) and kind not in ("sweep store", "neutral curve"):
         fail("--with and --runs go with a neutral-curve file")
-    if is_branch_file(file):
-        try:
-            paths = plot_branch(json.loads(Path(file).read_text()), folder)
-        except OSError as err:
-            fail(f"cannot write the figures: {err}")
-        for p in paths:
-            click.echo(str(p))
-        return
-    if is_steady_file(file):
-        try:
-            paths = plot_steady(read_steady(file), folder)
-        except ValueError as err:
-            fail(str(err))
-        except OSError as err:
-            fail(f"cannot write the figures: {err}")
-        for p in paths:
-            click.echo(str(p))
-        return
-    data = _load(file)
     try:
-        paths = plot_run(data, folder)
+        paths = draw(file, folder, others, runs_store)
+    except ValueError as err:
+        fail(str(err))
     except OSError as err:
         fail(f"cannot write the figures: {err}")
-    for p in paths:
+    for p in paths or []:
         click.echo(str(p))
+
+
+def _draw_neutral(file, folder, others, runs_store):
+    _plot_curves([json.loads(Path(file).read_text())], folder, others, runs_store)
+
+
+def _draw_branch(file, folder, others, runs_store):
+    return plot_branch(json.loads(Path(file).read_text()), folder)
+
+
+def _draw_steady(file, folder, others, runs_store):
+    return plot_steady(read_steady(file), folder)
+
+
+def _draw_run(file, folder, others, runs_store):
+    return plot_run(_load(file), folder)
+
+
+def _draw_sweep(file, folder, others, runs_store):
+    _plot_sweep(file, folder, others, runs_store)
+
+
+#: The kinds of file ``vesicle plot`` draws, in the order they are recognised: name ->
+#: (detector, drawer).  A run file is the last resort (its reader says what is wrong with a
+#: file that is none of them).  A new kind of output is one entry here.
+FILE_KINDS = {
+    "sweep store": (is_sweep_store, _draw_sweep),
+    "neutral curve": (is_neutral_file, _draw_neutral),
+    "branch": (is_branch_file, _draw_branch),
+    "steady state": (is_steady_file, _draw_steady),
+    "run": (lambda file: True, _draw_run),
+}
 
 
 def _plot_curves(curves: list[dict], folder, others, runs_store) -> None:
