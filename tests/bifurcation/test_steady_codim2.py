@@ -13,7 +13,7 @@ import pytest
 
 import vesicle as vs
 from vesicle.bifurcation import codim2
-from vesicle.bifurcation.steady_codim2 import SteadyEquations
+from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_change
 from vesicle.steady.stability import stability
 
 TINY = vs.Discretisation(grid=8, degree=2)
@@ -88,3 +88,26 @@ def test_a_hopf_point_located_on_the_augmented_system_is_the_bracketed_lambda_c(
     assert point.p[1] == pytest.approx(8.59004, abs=1e-3)
     assert math.exp(point.p[0]) == pytest.approx(3.162, rel=1e-12)  # chi held
     assert point.omega > 0.5 and not point.other_unstable
+
+
+@pytest.mark.slow
+def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_curve():
+    """v = 0.95, N = 4 on 16x32 (about 2 min): the lower sheet's fold and the upper sheet's
+    Hopf point solved for at each chi, and the chi where their lambdas meet.  Independent
+    references: the one-parameter tracer bracketed the change in [0.2544, 0.2577] with
+    lambda_c about 7.520 and omega_R 0.058 at its Hopf end (docs/notes/
+    continuation-measurements.md); SPEC 14: near 0.25.  Measured: 0.256642, 7.519719,
+    omega_R 0.05720."""
+    disc = vs.Discretisation(grid=16, degree=4)
+    settings = codim2.Settings(ftol=1e-8, step_tol=1e-6, newton_differences="central")
+    low = vs.branch(vs.Physics(v=0.95, lam=7.0, chi=0.26), disc, "lam", [7.0, 7.3, 7.45, 7.5],
+                    locate=False, arclength=False).points[-1].steady  # fmt: skip
+    up = vs.steady_tank_treading(vs.Physics(v=0.95, lam=7.59, chi=0.27), disc)
+    eq = SteadyEquations(low.physics, disc, form="spec")
+    fold = codim2.locate_fold(eq, *eq.state(low), free=1, settings=settings)
+    hopf = codim2.locate_hopf(eq, *eq.state(up), free=1, settings=settings)
+    change = locate_type_change(eq, fold, hopf, (0.25, 0.265), settings=settings)
+    assert change.located and not change.fold.other_unstable and not change.hopf.other_unstable
+    assert 0.2544 <= change.chi <= 0.2577
+    assert change.lambda_c == pytest.approx(7.520, abs=5e-3)
+    assert change.omega_R == pytest.approx(0.058, abs=3e-3)

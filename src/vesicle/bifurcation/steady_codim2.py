@@ -31,13 +31,14 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.optimize import brentq
 
 from vesicle.bifurcation import codim2
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.steady.newton import NEWTON_TOLERANCES, SteadyResult
 from vesicle.steady.problem import SteadyProblem
 
-__all__ = ["FORMS", "SteadyEquations"]
+__all__ = ["FORMS", "SteadyEquations", "TypeChange", "locate_type_change", "trace_from_hopf"]
 
 #: The Jacobian the curves are defined by: ``"curvature"``, the Newton matrix with the
 #: multipliers' curvature (its fold is exactly where the branch of steady states turns), or
@@ -194,3 +195,76 @@ def trace_from_hopf(
                 out.fold.append(fold)
                 out.special.extend(fold.special)
     return out
+
+
+@dataclass(frozen=True)
+class TypeChange:
+    """Where the neutral curve changes type: the lower sheet's fold curve meets the upper
+    sheet's Hopf curve (an S-shaped branch: below ``chi`` tank-treading ends at the fold, above
+    it the state it jumps to stays stable up to its Hopf point).  Both points are solved for on
+    their augmented systems at ``chi``, which Brent's method found to ``xtol``; ``located`` when
+    both converged there (``gap``: their difference in lambda, left by ``xtol``)."""
+
+    chi: float
+    lambda_c: float
+    omega_R: float
+    fold: codim2.CurvePoint
+    hopf: codim2.CurvePoint
+    gap: float
+    located: bool
+
+    def to_dict(self) -> dict:
+        return {"chi": self.chi, "lambda_c": self.lambda_c, "omega_R": self.omega_R,
+                "gap": self.gap, "located": self.located,
+                "fold_residual": float(self.fold.residual),
+                "hopf_residual": float(self.hopf.residual)}  # fmt: skip
+
+
+def locate_type_change(
+    equations: SteadyEquations,
+    fold: codim2.CurvePoint,
+    hopf: codim2.CurvePoint,
+    chi_bracket: tuple[float, float],
+    *,
+    xtol: float = 1e-6,
+    settings: codim2.Settings | None = None,
+    progress: Callable[[dict], None] | None = None,
+) -> TypeChange:
+    """The ``chi`` in ``chi_bracket`` where the fold point (held ``chi``, free ``lambda``) and
+    the Hopf point of the other sheet have the same ``lambda``: Brent's method on
+    ``lambda_hopf(chi) - lambda_fold(chi)``, each point solved for from the last one found.
+    ``fold`` and ``hopf`` are located points near the bracket (:func:`codim2.locate_fold`,
+    :func:`codim2.locate_hopf` from states on the two sheets).  Raises ``ValueError`` if the
+    gap does not change sign over the bracket, ``RuntimeError`` if a point does not converge."""
+    last = {"fold": fold, "hopf": hopf}
+
+    def at(kind: str, chi: float) -> codim2.CurvePoint:
+        q = last[kind]
+        p = np.array([math.log(chi), q.p[1]])
+        if kind == "fold":
+            r = codim2.locate_fold(equations, q.x, p, free=1, v=q.v, w=q.w, settings=settings)
+        else:
+            r = codim2.locate_hopf(equations, q.x, p, free=1, omega=q.omega, settings=settings)
+        if not r.converged:
+            raise RuntimeError(f"the {kind} point at chi = {chi:.6g} did not converge "
+                               f"(residual {r.residual:.2e})")  # fmt: skip
+        last[kind] = r
+        return r
+
+    def gap(chi: float) -> float:
+        f, h = at("fold", chi), at("hopf", chi)
+        if progress is not None:
+            progress({"chi": chi, "fold": float(f.p[1]), "hopf": float(h.p[1]),
+                      "omega_R": float(h.omega)})  # fmt: skip
+        return float(h.p[1] - f.p[1])
+
+    lo, hi = sorted(chi_bracket)
+    g_lo, g_hi = gap(lo), gap(hi)
+    if g_lo * g_hi > 0:
+        raise ValueError(f"the Hopf and fold points do not cross in chi = [{lo:g}, {hi:g}] "
+                         f"(gaps {g_lo:+.3g}, {g_hi:+.3g})")  # fmt: skip
+    chi = brentq(gap, lo, hi, xtol=xtol)
+    f, h = at("fold", chi), at("hopf", chi)
+    return TypeChange(chi=float(chi), lambda_c=float(0.5 * (f.p[1] + h.p[1])),
+                      omega_R=float(h.omega), fold=f, hopf=h, gap=float(h.p[1] - f.p[1]),
+                      located=bool(f.converged and h.converged))  # fmt: skip
