@@ -37,12 +37,14 @@ def test_traced_point_agrees_with_the_bracketing_search(curve):
 def test_low_shear_end_is_a_fold(curve):
     """chi = 0.2 is below the type change (SPEC §14: near 0.25 at v = 0.95): a saddle-node
     with a real critical eigenvalue, where critical_lambda's bracketing cannot go.  Its
-    lambda_c is the fold of the branch, 7.4833 (the branch tracer's pseudo-arclength gives
-    7.48326 at this resolution, docs/notes/continuation-measurements.md); the state just
-    below it is stable."""
+    lambda_c is the fold of the branch, located to the tracer's xtol (1e-3).  Independent
+    reference: the fold solved for on its minimally augmented system (a singular Jacobian,
+    vesicle.bifurcation.codim2.locate_fold, not the tracer's pseudo-arclength secant) at
+    7.483254 (docs/notes/codim2-measurements.md); the state just below it is stable."""
     low = curve.points[0]
     assert low.chi == 0.2 and low.bifurcation == "saddle-node" and low.omega_R < 1e-2
-    assert low.lambda_c == pytest.approx(7.4833, abs=2e-3)
+    assert low.located
+    assert low.lambda_c == pytest.approx(7.483254, abs=2e-3)
     assert vs.stability(low.start).most_unstable[1] < 0 and low.start.lam < low.lambda_c
     high = curve.points[-1]
     assert high.bifurcation == "hopf" and high.omega_R > 0.1
@@ -51,11 +53,15 @@ def test_low_shear_end_is_a_fold(curve):
 
 @pytest.mark.slow
 def test_the_type_change_is_located_between_fold_and_hopf():
-    """Bisection in log chi between 0.2 (fold) and 0.5 (Hopf) at N = 4."""
+    """Bisection in log chi between 0.2 (fold) and 0.5 (Hopf) at N = 4 to 5 %.  Independent
+    reference: the change solved for where the fold curve meets the upper sheet's Hopf curve,
+    each point on its augmented system, at chi = 0.256642 (steady_codim2.locate_type_change,
+    docs/notes/codim2-measurements.md): the tracer's bracket must hold it."""
     c = neutral_curve(vs.Physics(v=0.95), [0.2, 0.5], DISC, xtol=1e-3, type_tol=0.05)
     assert c.type_change is not None
     lo, hi = c.type_change["bracket"]
-    assert 0.2 <= lo < hi <= 0.5 and c.type_change["below"] == "saddle-node"
+    assert c.type_change["below"] == "saddle-node" and c.type_change["above"] == "hopf"
+    assert lo <= 0.256642 <= hi and hi / lo - 1.0 <= 0.06
 
 
 def test_neutral_json_has_the_issue_keys(tmp_path):

@@ -797,25 +797,34 @@ def _follow_fold(
             tracer.add(data)
     if not turned:
         return None
-    fold = _locate_fold(A, point, nxt, xtol)
+    fold, located = _locate_fold(A, point, nxt, xtol)
     beyond = nxt
     for _ in range(past_fold):  # the unstable side, if asked
         beyond = arclength_step(A.residual, A.jacobian, beyond, ds, 1e-8, ds / 64)
         tracer.add(beyond.data)
-    return SpecialPoint("saddle-node", name, fold, 0.0, True, (point.z[-1], nxt.z[-1]))
+    return SpecialPoint("saddle-node", name, fold, 0.0, located, (point.z[-1], nxt.z[-1]))
 
 
-def _locate_fold(A: _Arclength, before: ArclengthPoint, after: ArclengthPoint, xtol: float):
-    """Secant in the arclength ``s`` from ``before`` on the tangent's parameter component."""
+def _locate_fold(
+    A: _Arclength, before: ArclengthPoint, after: ArclengthPoint, xtol: float
+) -> tuple[float, bool]:
+    """Secant in the arclength ``s`` from ``before`` on the tangent's parameter component: the
+    fold's parameter and whether the secant converged to ``xtol`` (else the last iterate, an
+    estimate).  Each iterate's arclength is the step the corrector took (it may halve the one
+    asked for); a corrector that fails ends the search with the estimate, not the branch."""
     s0, f0 = 0.0, before.tangent[-1]
     s1, f1 = after.ds, after.tangent[-1]
     p_fold = 0.5 * (before.z[-1] + after.z[-1])
     for _ in range(12):
         s2 = s1 - f1 * (s1 - s0) / (f1 - f0) if f1 != f0 else 0.5 * (s0 + s1)
-        q = arclength_step(A.residual, A.jacobian, before, s2, 1e-8, abs(s2) / 64)
+        try:
+            q = arclength_step(A.residual, A.jacobian, before, s2, 1e-8, abs(s2) / 64)
+        except (RuntimeError, NewtonError, ShapeError, SolverError) as err:
+            log.info("locating the fold: the corrector failed (%s); the fold is an estimate", err)
+            return p_fold, False
         A.tracer.add(q.data, on_path=False)
         previous, p_fold = p_fold, float(q.z[-1])
-        s0, f0, s1, f1 = s1, f1, s2, q.tangent[-1]
+        s0, f0, s1, f1 = s1, f1, q.ds, q.tangent[-1]
         if abs(p_fold - previous) < xtol * (1.0 if A.tracer.parameter == "lam" else abs(p_fold)):
-            break
-    return p_fold
+            return p_fold, True
+    return p_fold, False

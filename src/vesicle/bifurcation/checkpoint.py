@@ -119,7 +119,8 @@ def read_checkpoint(
             # and the resumed curve looks past it again, as the uninterrupted one did (psi and
             # D are the other branch's until then)
             point = dataclasses.replace(point, lambda_c=point.lower_fold,
-                                        bifurcation="saddle-node", omega_R=0.0, located=True,
+                                        bifurcation="saddle-node", omega_R=0.0,
+                                        located=point.lower_fold_located,
                                         bracket=None, lower_fold=None)  # fmt: skip
         points.append(point)
     return points

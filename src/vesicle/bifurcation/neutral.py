@@ -86,6 +86,8 @@ class NeutralPoint:
     #: window of unresolved real growth): ``lambda_c`` is the loss of stability further up
     #: (see :meth:`_Tracer.past_fold`)
     lower_fold: float | None = None
+    #: whether that fold was located (to xtol on its branch) or is an estimate
+    lower_fold_located: bool = False
 
     def to_dict(self) -> dict:
         return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
@@ -93,7 +95,9 @@ class NeutralPoint:
                 "located": self.located, "seconds": self.seconds,
                 "curvature_shift": self.curvature_shift,
                 **({"bracket": list(self.bracket)} if self.bracket else {}),
-                **({} if self.lower_fold is None else {"lower_fold": self.lower_fold})}  # fmt: skip
+                **({} if self.lower_fold is None else
+                   {"lower_fold": self.lower_fold,
+                    "lower_fold_located": self.lower_fold_located})}  # fmt: skip
 
     @classmethod
     def from_dict(cls, d: dict, start: SteadyResult | None = None) -> NeutralPoint:
@@ -101,10 +105,11 @@ class NeutralPoint:
         bracket = d.get("bracket")
         return cls(float(d["chi"]), float(d["lambda_c"]), str(d["bifurcation"]),
                    float(d["omega_R"]), float(d["psi"]), float(d["D"]),
-                   bool(d.get("located", True)), float(d.get("seconds", 0.0)),
+                   bool(d.get("located", False)), float(d.get("seconds", 0.0)),
                    tuple(map(float, bracket)) if bracket else None, start,
                    float(d.get("curvature_shift", 0.0)),
-                   None if d.get("lower_fold") is None else float(d["lower_fold"]))  # fmt: skip
+                   None if d.get("lower_fold") is None else float(d["lower_fold"]),
+                   bool(d.get("lower_fold_located", False)))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -288,7 +293,8 @@ class _Tracer:
         return p
 
     def _point(self, chi: float, special: SpecialPoint, b, state: SteadyResult, t0: float,
-               lower_fold: float | None = None) -> NeutralPoint:  # fmt: skip
+               lower_fold: float | None = None,
+               lower_fold_located: bool = False) -> NeutralPoint:  # fmt: skip
         """The point of the special point ``special`` of the branch ``b`` (followed from the
         stable ``state``), with the state the next chi starts from."""
         side = self.side
@@ -309,7 +315,8 @@ class _Tracer:
                             float(nearest.steady.psi), float(nearest.steady.D),
                             bool(special.located), time.perf_counter() - t0,
                             None if special.located else tuple(map(float, special.bracket)),
-                            start_from, nearest.curvature_shift, lower_fold)  # fmt: skip
+                            start_from, nearest.curvature_shift, lower_fold,
+                            lower_fold_located)  # fmt: skip
 
     def past_fold(self, fold: NeutralPoint, hopf: NeutralPoint) -> NeutralPoint | None:
         """Whether tank-treading goes on past the fold of ``fold`` (the branch from low lam
@@ -356,10 +363,10 @@ class _Tracer:
         losses = [s for s in down.special_points if s.value > probe and _lost_upwards(down, s)]
         if losses:
             p = self._point(fold.chi, min(losses, key=lambda s: s.value), down, end.steady,
-                            t0, fold.lambda_c)  # fmt: skip
+                            t0, fold.lambda_c, fold.located)  # fmt: skip
         else:  # stable from the fold up to the Hopf neighbour's lambda_c: follow it up
             special, up = self.crossing(high, top)
-            p = self._point(fold.chi, special, up, high, t0, fold.lambda_c)
+            p = self._point(fold.chi, special, up, high, t0, fold.lambda_c, fold.located)
         log.warning("chi = %.4g: past the real crossing at lam = %.6g the vesicle goes on "
                     "tank-treading (another part of the branch, stable, or the same part, "
                     "unstable only within the resolution) up to the %s point at lam = %.6g "
