@@ -263,7 +263,13 @@ class _Tracer:
                 log.warning("chi = %.4g: the branch folds near lam = %.6g (not located: %s)",
                             state.chi, last, b.stopped)  # fmt: skip
                 failed = b.stopped_between[1] if b.stopped_between else last
-                return SpecialPoint("fold", "lam", last, 0.0, False, (last, failed)), b
+                # an estimate, reported with what was computed there: the leading eigenvalue
+                # of the last point reached (a complex pair is not called a saddle-node)
+                end = max(b.points, key=lambda p: side * p.physics.lam)
+                w_r = float(end.most_unstable[0])
+                kind = "hopf" if w_r > REAL_TOLERANCE else "fold"
+                return SpecialPoint(kind, "lam", last, w_r if kind == "hopf" else 0.0, False,
+                                    (last, failed)), b  # fmt: skip
             state, lam = b.points[-1].steady, values[-1]
         raise NewtonError(f"no loss of stability at chi = {state.chi:g} "
                           f"{'below' if side > 0 else 'above'} lam = {lam:g}")  # fmt: skip
