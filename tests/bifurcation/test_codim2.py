@@ -398,6 +398,23 @@ def test_cusp_is_gone_around_and_located():
     assert np.sign(curve.points[0].tests["cusp"]) != np.sign(curve.points[-1].tests["cusp"])
 
 
+def test_a_curve_lands_on_the_values_of_p0_asked_for():
+    """The cusp's fold curve ``p0 = -2 x0^3, p1 = 3 x0^2`` with landing values of p0 on both
+    sheets: each is a point of the curve with p0 exactly that value (held by its corrector)
+    and p1 = 3 (|p0|/2)^(2/3), the exact curve, to the Newton tolerance."""
+    problem = Cusp()
+    start = locate_fold(problem, problem.to_u([-0.98, 2.7, 0.1]), [2.0, 3.0], free=0)
+    landing = [1.5, 0.7, 0.2, -0.5, -1.7]
+    curve = fold_curve(problem, start, direction=(0, -1), bounds=[[-5, 5], [-1, 3.05]],
+                       landing=landing)  # fmt: skip
+    p = curve.p
+    for value in landing:
+        hit = [q for q in p if q[0] == value]
+        assert len(hit) == 1, (value, p[:, 0])
+        assert hit[0][1] == pytest.approx(3 * (abs(value) / 2) ** (2 / 3), abs=EXACT)
+    assert all(q.converged for q in curve.points) and curve.end == "bounds"
+
+
 @pytest.mark.parametrize("s", [-1.0, 1.0])
 def test_bogdanov_takens_fold_curve_then_switch_to_hopf(s):
     problem = BogdanovTakens(s)

@@ -68,7 +68,7 @@ def test_neutral_json_has_the_issue_keys(tmp_path):
     out = tmp_path / "n.json"
     r = CliRunner().invoke(main, ["neutral", "--v", "0.95", "--chi", "1,2", "--grid", "16",
                                   "--degree", "4", "--no-type-change", "--out", str(out),
-                                  "--json"])  # fmt: skip
+                                  "--json", "--continuation", "trace"])  # fmt: skip
     assert r.exit_code == 0, r.output
     result = json.loads(r.output.strip().splitlines()[-1])
     assert {"v", "degree", "grid", "points", "type_change"} <= set(result)
@@ -153,7 +153,8 @@ def test_a_failing_direction_keeps_what_was_found(failing_tracer, tmp_path):
     assert [f["chi"] for f in c.failed] == [3.0] and "chi = 3" in c.failed[0]["error"]
     assert c.to_dict()["failed"] == c.failed
     out = tmp_path / "n.json"
-    args = ["--chi", "0.5,1,2,3,4", "--grid", "16", "--degree", "4", "--no-type-change"]
+    args = ["--chi", "0.5,1,2,3,4", "--grid", "16", "--degree", "4", "--no-type-change",
+            "--continuation", "trace"]  # fmt: skip
     r = CliRunner().invoke(main, ["neutral", *args, "--out", str(out)])
     assert r.exit_code != 0 and "the curve stopped" in r.output and "chi = 3" in r.output
     written = json.loads(out.read_text())
@@ -268,7 +269,7 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, stand_in,
     monkeypatch.setattr(neutral._Tracer, "point", stand_in(small_state, calls, fail_above=1.6))
     out = tmp_path / "n.json"
     args = ["neutral", "--chi", "0.8,1,1.5,2,3", "--grid", "12", "--degree", "4",
-            "--no-type-change", "--out", str(out)]  # fmt: skip
+            "--no-type-change", "--out", str(out), "--continuation", "trace"]  # fmt: skip
     r = CliRunner().invoke(main, args)
     assert r.exit_code != 0 and "--resume continues" in r.output
     assert sorted(calls) == [0.8, 1.0, 1.5]
@@ -295,7 +296,7 @@ def test_resume_refuses_another_curve(small_state, stand_in, monkeypatch, tmp_pa
 
     out = tmp_path / "n.json"
     args = ["neutral", "--chi", "1,2", "--grid", "12", "--degree", "4", "--no-type-change",
-            "--out", str(out)]  # fmt: skip
+            "--out", str(out), "--continuation", "trace"]  # fmt: skip
     monkeypatch.setattr(neutral, "reach", lambda *a, **k: small_state)
     monkeypatch.setattr(neutral, "critical_lambda",
                         lambda *a, **k: vs.CriticalResult(8.1, "hopf", 0.3, ()))  # fmt: skip
@@ -303,8 +304,13 @@ def test_resume_refuses_another_curve(small_state, stand_in, monkeypatch, tmp_pa
     assert CliRunner().invoke(main, args).exit_code == 0
     r = CliRunner().invoke(main, [*args, *change, "--resume"])
     assert r.exit_code != 0 and f"file's {key}" in r.output and "Traceback" not in r.output
-    r = CliRunner().invoke(main, ["neutral", "--chi", "1,2", "--resume"])
+    r = CliRunner().invoke(main, ["neutral", "--chi", "1,2", "--resume", "--continuation",
+                                  "trace"])  # fmt: skip
     assert r.exit_code != 0 and "give --out" in r.output
+    # the two-parameter continuation writes its curve when complete: no --resume, no --states
+    for extra in (["--resume", "--out", "n.json"], ["--states", "st"]):
+        r = CliRunner().invoke(main, ["neutral", "--chi", "1,2", *extra])
+        assert r.exit_code != 0 and "--continuation trace" in r.output
 
 
 def test_a_resumed_trace_is_the_uninterrupted_one(curve, tmp_path):

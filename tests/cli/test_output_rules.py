@@ -51,9 +51,11 @@ def test_neutral_refuses_to_mix_a_new_curve_with_old_states(tmp_path):
     folder = tmp_path / "n.states"
     folder.mkdir()
     (folder / "chi_1.h5").write_text("an earlier curve's state")
-    r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out))
+    r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out),
+            "--continuation", "trace")  # fmt: skip
     assert r.exit_code != 0 and "holds 1 states" in r.output and "--resume" in r.output
-    r = run("neutral", "--chi", "1,2", "--out", str(out), "--resume", "--overwrite")
+    r = run("neutral", "--chi", "1,2", "--out", str(out), "--resume", "--overwrite",
+            "--continuation", "trace")  # fmt: skip
     assert r.exit_code != 0 and "give one" in r.output
 
 
@@ -69,7 +71,7 @@ def test_neutral_overwrite_clears_the_old_states_before_tracing(tmp_path, monkey
 
     monkeypatch.setattr(cli_steady, "neutral_curve", stop)
     r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out),
-            "--overwrite")  # fmt: skip
+            "--overwrite", "--continuation", "trace")  # fmt: skip
     assert not (folder / "chi_1.h5").exists()
     # Ctrl-C says what was kept and how to go on, not click's bare "Aborted!"
     assert r.exit_code == 130 and "interrupted" in r.output and "--resume" in r.output

@@ -215,7 +215,15 @@ class Problem(abc.ABC):
 
     @abc.abstractmethod
     def jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """``J = F_x(x, p)``, dense, shape (n, n)."""
+        """``J = F_x(x, p)``, dense, shape (n, n): the matrix whose singularity (or that of
+        ``J - i omega B``) defines the fold (Hopf) curves and whose pencil gives the
+        stability.  A problem whose stability operator is *not* the derivative of ``F`` (the
+        vesicle's SPEC §9 operator) returns that operator here and the derivative from
+        :meth:`state_jacobian`."""
+
+    # Optional: ``state_jacobian(x, p) -> ndarray (n, n)``, the exact ``F_x`` where it differs
+    # from :meth:`jacobian`; Newton's rows of ``F`` (and the curves' tangents) use it, so that
+    # they converge quadratically.  Not defined here: a problem without it has ``F_x = J``.
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``F_p(x, p)``, shape (n, 2); default :func:`fd_parameter_derivative`."""
@@ -277,7 +285,8 @@ class Evaluations:
 class _Evaluator:
     """The problem behind a counter, with the defaults routed through the counted calls."""
 
-    def __init__(self, problem: Any, n: int, differences: str = "forward"):
+    def __init__(self, problem: Any, n: int, differences: str = "forward",
+                 forward_step: float | None = None):
         for name in ("residual", "jacobian"):
             if not callable(getattr(problem, name, None)):
                 raise TypeError(f"the problem has no {name}(x, p) method")
@@ -296,7 +305,9 @@ class _Evaluator:
                 raise ValueError(f"mass has shape {self.B.shape}, expected {(n, n)}")
         self.identity_mass = bool(np.array_equal(self.B, np.eye(n)))
         self.counts = [0, 0, 0, 0]
+        self.own_state_jacobian = callable(getattr(problem, "state_jacobian", None))
         self.differences = differences
+        self.forward_step = _FORWARD_STEP if forward_step is None else float(forward_step)
         self.base: tuple = (None, None, None, None)
 
     def evaluations(self) -> Evaluations:
@@ -315,6 +326,17 @@ class _Evaluator:
         if J.shape != (self.n, self.n):
             raise ValueError(f"jacobian has shape {J.shape}, expected {(self.n, self.n)}")
         return J
+
+    def state_jacobian(self, x: np.ndarray, p: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """``F_x`` for the rows of ``F`` in a Newton matrix: the problem's
+        ``state_jacobian`` where it has one (``J`` of the same point otherwise)."""
+        if not self.own_state_jacobian:
+            return J
+        Jf = np.asarray(self.problem.state_jacobian(np.array(x, float), np.array(p, float)),
+                        float)  # fmt: skip
+        if Jf.shape != (self.n, self.n):
+            raise ValueError(f"state_jacobian has shape {Jf.shape}, expected {(self.n, self.n)}")
+        return Jf
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         if self.own_parameter_derivative:
@@ -342,7 +364,7 @@ class _Evaluator:
         columns = []
         for j in range(2):
             plus = np.array(p, float)
-            plus[j] += _FORWARD_STEP * max(1.0, abs(p[j]))
+            plus[j] += self.forward_step * max(1.0, abs(p[j]))
             columns.append((self.residual(x, plus) - F) / (plus[j] - p[j]))
         return np.column_stack(columns)
 
@@ -359,7 +381,7 @@ class _Evaluator:
         size = float(np.max(np.abs(d)))
         if size == 0.0:
             return np.zeros(np.shape(q))
-        h = _FORWARD_STEP * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(p)))) / size
+        h = self.forward_step * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(p)))) / size
         return (self.jacobian(x + h * d[:n], p + h * d[n:]) - J) @ q / h
 
     def action(self, x: np.ndarray, p: np.ndarray, q: np.ndarray, direction: np.ndarray):
@@ -426,6 +448,23 @@ class Settings:
         direction: one Jacobian, both reusing the base point's) or central (the
         :class:`Problem` defaults: four residuals, two Jacobians).  Test functions (the cusp
         coefficient) always use the central default or the hook.
+    target_iterations : int
+        The step grows by 1.5 after a corrector of at most this many Newton iterations and
+        shrinks by 0.7 after one of ``target_iterations + 2`` or more (3 suits Newton whose
+        second derivatives are differences with linear convergence).
+    central_after : int
+        With forward differences: after this many Newton iterations without convergence the
+        rest of that solve uses central differences (0: never).  Next to a cusp the fold
+        system's row along the null vector, ``2a``, tends to zero and the forward
+        differences' error swamps it (measured on the vesicle: correctors stuck at residuals
+        of 1e-3 for 8 iterations).
+    forward_step : float, optional
+        Relative step of those forward differences; default ``sqrt(eps)`` (1.5e-8), right for
+        a problem evaluated to rounding.  A problem whose Jacobian carries noise ``delta``
+        (iterative solves) wants about ``sqrt(delta)``: the derivative's error is then about
+        ``sqrt(delta)`` relative, which only makes Newton's convergence linear at that rate
+        (the converged point is defined by ``F`` and the test functions, not by these
+        derivatives).
     """
 
     ds: float = 0.05
@@ -442,12 +481,17 @@ class Settings:
     monitor_cusp: bool = True
     method: str = "minaug"
     newton_differences: str = "forward"
+    forward_step: float | None = None
+    target_iterations: int = 2
+    central_after: int = 0
 
     def __post_init__(self):
         if not 0 < self.ds_min <= self.ds <= self.ds_max:
             raise ValueError(f"need 0 < ds_min <= ds <= ds_max, got {self}")
-        if self.max_iter < 1 or self.n_eigenvalues < 0:
-            raise ValueError("need max_iter >= 1 and n_eigenvalues >= 0")
+        if self.max_iter < 1 or self.n_eigenvalues < 0 or self.target_iterations < 1 or \
+                self.central_after < 0:  # fmt: skip
+            raise ValueError("need max_iter >= 1, n_eigenvalues >= 0, target_iterations >= 1, "
+                             "central_after >= 0")
         if not (self.ftol > 0 and self.step_tol > 0 and self.locate_tol > 0):
             raise ValueError("tolerances must be positive")
         if not 0 < self.max_angle < math.pi:
@@ -457,6 +501,8 @@ class Settings:
                 "newton_differences must be 'forward' or 'central', "
                 f"got {self.newton_differences!r}"
             )
+        if self.forward_step is not None and not 0 < self.forward_step < 1:
+            raise ValueError(f"forward_step must lie in (0, 1), got {self.forward_step}")
         if self.method not in ("minaug", "extended"):
             raise ValueError(f"method must be 'minaug' or 'extended', got {self.method!r}")
 
@@ -569,8 +615,9 @@ class Curve:
         Codim-2 points in the order found.
     end : str
         Why the continuation stopped: ``"max_points"``, ``"bounds"`` (a point left the
-        parameter box; it is the last point), ``"bt"`` (a Hopf curve reached omega = 0 at a
-        located BT point), ``"hopf_end"`` (the same, unlocated), ``"step_too_small"``.
+        parameter box; it is the last point), ``"stopped"`` (the caller's ``stop``),
+        ``"bt"`` (a Hopf curve reached omega = 0 at a located BT point), ``"hopf_end"`` (the
+        same, unlocated), ``"step_too_small"``.
     evaluations : Evaluations
         All calls made, start tangent and locations included.
     """
@@ -911,7 +958,17 @@ class _Solved:
 
 
 def _newton(ev, system, u, rows, target, s: Settings, max_iter: int | None = None) -> _Solved:
-    """Newton on ``F = 0, E = 0`` with the system's normalisation rows and ``rows u = target``."""
+    """Newton on ``F = 0, E = 0`` with the system's normalisation rows and ``rows u = target``;
+    forward differences in the Newton matrix turn central after ``s.central_after``
+    iterations without convergence (for this solve only)."""
+    differences = ev.differences
+    try:
+        return _newton_iterations(ev, system, u, rows, target, s, max_iter)
+    finally:
+        ev.differences = differences
+
+
+def _newton_iterations(ev, system, u, rows, target, s: Settings, max_iter) -> _Solved:
     n = ev.n
     max_iter = s.max_iter if max_iter is None else max_iter
     u = np.array(u, dtype=float)
@@ -929,6 +986,8 @@ def _newton(ev, system, u, rows, target, s: Settings, max_iter: int | None = Non
             return _Solved(u, False, iterations, math.inf, J, ctx)
         rres = rows @ u - target
         residual = max(np.max(np.abs(F)), np.max(np.abs(E)), np.max(np.abs(rres), initial=0.0))
+        log.debug("newton %d: |F| %.3g, |E| %.3g", iterations, np.max(np.abs(F)),
+                  np.max(np.abs(E)))  # fmt: skip
         if not np.isfinite(residual):
             return _Solved(u, False, iterations, math.inf, J, ctx)
         scale = 1.0 + float(np.max(np.abs(u)))
@@ -937,10 +996,13 @@ def _newton(ev, system, u, rows, target, s: Settings, max_iter: int | None = Non
         best = min(best, residual)
         if iterations >= max_iter or (iterations >= 2 and residual > _DIVERGED * best):
             return _Solved(u, False, iterations, float(residual), J, ctx)
+        if s.central_after and iterations >= s.central_after:
+            ev.differences = "central"
         ev.set_base(x, p, F, J)
         Fp = ev.step_parameter_derivative(x, p)
         try:
-            du = _newton_step(ev, system, u, F, J, Fp, E, Ee, ctx, rows, rres)
+            Jf = ev.state_jacobian(x, p, J)
+            du = _newton_step(ev, system, u, F, Jf, Fp, E, Ee, ctx, rows, rres)
         except np.linalg.LinAlgError:
             return _Solved(u, False, iterations, float(residual), J, ctx)
         if not np.all(np.isfinite(du)):
@@ -964,7 +1026,7 @@ def _tangent(ev, system, u) -> np.ndarray:
     Fp = ev.step_parameter_derivative(x, p)
     _, Ee, ctx = system.evaluate(u, J)
     rows, _ = system.linear_rows(u.size)
-    A = _known_block(J, Fp, rows, u.size)
+    A = _known_block(ev.state_jacobian(x, p, J), Fp, rows, u.size)
     _, _, Vt = np.linalg.svd(A, full_matrices=True)
     K, r = _split_kernel(Vt[A.shape[0] :].T, nz)
     R = Ee @ K[nz:]
@@ -1070,6 +1132,27 @@ def _point(ev, kind, u, solved: _Solved, b, c, s: Settings, since: Evaluations) 
     n = ev.n
     J = solved.J
     omega = float(u[-1]) if kind == "hopf" else 0.0
+    if not solved.converged and (J is None or not np.all(np.isfinite(J))):
+        # a failed solve whose last iterate cannot be analysed: reported, not raised
+        dtype = complex if kind == "hopf" else float
+        return CurvePoint(kind=kind, x=_frozen(u[:n]), p=_frozen(u[n : n + 2]), omega=omega,
+                          residual=float(solved.residual), converged=False,
+                          iterations=int(solved.iterations), tests=MappingProxyType({}),
+                          eigenvalues=_frozen(np.zeros(0, complex)), other_unstable=False,
+                          v=_frozen(np.zeros(n, dtype)), w=_frozen(np.zeros(n, dtype)),
+                          evaluations=ev.evaluations() - since)  # fmt: skip
+    try:
+        return _analysed(ev, kind, u, solved, b, c, s, since, J, omega)
+    except np.linalg.LinAlgError:
+        if solved.converged:
+            raise
+        return _point(ev, kind, u, _Solved(u, False, solved.iterations, solved.residual,
+                                           None, None), b, c, s, since)  # fmt: skip
+
+
+def _analysed(ev, kind, u, solved, b, c, s, since, J, omega) -> CurvePoint:
+    """:func:`_point` of a state whose Jacobian is finite: monitors and spectrum."""
+    n = ev.n
     if kind == "hopf":
         v, g, w, _ = _bordered(J - 1j * omega * ev.B, b, c)
         tests = {"g_re": float(g.real), "g_im": float(g.imag), "omega": omega}
@@ -1106,7 +1189,7 @@ def _prepare(problem, x, p, s: Settings) -> tuple[_Evaluator, np.ndarray, np.nda
         raise ValueError(f"p must have two components, got {p.size}")
     if x.size < 1 or not (np.all(np.isfinite(x)) and np.all(np.isfinite(p))):
         raise ValueError("x and p must be finite and x non-empty")
-    return _Evaluator(problem, x.size, s.newton_differences), x, p
+    return _Evaluator(problem, x.size, s.newton_differences, s.forward_step), x, p
 
 
 def _fixing_row(n: int, size: int, free: int, p: np.ndarray):
@@ -1316,7 +1399,8 @@ def locate_bt(
 class _Tracer:
     """Pseudo-arclength continuation of one curve with its special points."""
 
-    def __init__(self, ev, form: _Formulation, s: Settings, bounds, max_points, progress):
+    def __init__(self, ev, form: _Formulation, s: Settings, bounds, max_points, progress,
+                 stop=None, landing=None):  # fmt: skip
         self.ev, self.form, self.s = ev, form, s
         self.bounds = None if bounds is None else np.asarray(bounds, dtype=float)
         if self.bounds is not None and self.bounds.shape != (2, 2):
@@ -1325,6 +1409,8 @@ class _Tracer:
             raise ValueError("max_points must be at least 2")
         self.max_points = max_points
         self.progress = progress
+        self.stop = stop
+        self.landing = sorted({float(x) for x in landing}) if landing is not None else []
         self.skip_first: set[str] = set()
         self.points: list[CurvePoint] = []
         self.states: list[np.ndarray] = []
@@ -1365,10 +1451,26 @@ class _Tracer:
         self.states.append(u)
         t = t / np.linalg.norm(t[form.geom])
         ds, end, bt_tries = s.ds, "max_points", 0
+        done: set[float] = set()  # landing values reached (or given up on)
         while len(self.points) < self.max_points:
             u_pred = u + ds * t
-            solved = self.correct(u_pred, u, t, ds * (self.arc_row(t) @ t))
-            refused, length = self.refusal(solved, u, u_pred, t, ds)
+            land, step = self.landing_value(u, u_pred, done), ds
+            if land is None:
+                solved = self.correct(u_pred, u, t, ds * (self.arc_row(t) @ t))
+            else:  # a shorter step onto p[0] = land, corrected there with p[0] held
+                n0 = ev.n
+                step = ds * (land - u[n0]) / (u_pred[n0] - u[n0])
+                u_pred = u + step * t
+                row = np.zeros(u.size)
+                row[n0] = 1.0
+                solved = _newton(ev, form.system(), u_pred, row, [land], s)
+            refused, length = self.refusal(solved, u, u_pred, t, step)
+            if land is not None:
+                done.add(land)
+                if refused is not None:  # the landing failed: the arclength step instead
+                    log.debug("%s curve: landing on p0 = %.6g refused: %s", form.kind, land,
+                              refused)  # fmt: skip
+                    continue
             if refused is None and form.kind == "hopf" and form.omega(solved.u) <= 0.0:
                 if bt_tries < _BT_TRIES and self.hopf_end(u):
                     end = "bt"
@@ -1414,14 +1516,17 @@ class _Tracer:
             )
             t = (solved.u - u) / length
             u = solved.u
-            if solved.iterations <= 2:
+            if solved.iterations <= s.target_iterations:
                 ds = min(s.ds_max, 1.5 * ds)
-            elif solved.iterations >= 4:
+            elif solved.iterations >= s.target_iterations + 2:
                 ds = max(s.ds_min, 0.7 * ds)
             if self.bounds is not None and np.any(
                 (point.p < self.bounds[:, 0]) | (point.p > self.bounds[:, 1])
             ):
                 end = "bounds"
+                break
+            if self.stop is not None and self.stop(point, tuple(self.special)):
+                end = "stopped"
                 break
             if form.kind == "hopf" and t[-1] < 0 and form.omega(u) + ds * t[-1] <= 0.0:
                 # the next step would cross omega = 0: the curve ends at a BT point
@@ -1445,6 +1550,13 @@ class _Tracer:
             end=end,
             evaluations=ev.evaluations() - begin,
         )
+
+    def landing_value(self, u, u_pred, done: set[float]) -> float | None:
+        """The first landing value of ``p[0]`` strictly past ``u`` and up to the prediction."""
+        a, b = u[self.ev.n], u_pred[self.ev.n]
+        hits = [x for x in self.landing if x not in done and
+                min(a, b) < x <= max(a, b) and abs(x - a) > 1e-12]  # fmt: skip
+        return min(hits, key=lambda x: abs(x - a)) if hits else None
 
     def refusal(self, solved: _Solved, u, u_pred, t, ds) -> tuple[str | None, float]:
         """Why a corrected point is refused (None: accepted), and the step's length."""
@@ -1603,6 +1715,8 @@ def fold_curve(
     max_points: int = 200,
     settings: Settings | None = None,
     progress: Callable[[CurvePoint], None] | None = None,
+    stop: Callable[[CurvePoint, tuple[SpecialPoint, ...]], bool] | None = None,
+    landing: Sequence[float] | None = None,
 ) -> Curve:
     """Continue a fold (saddle-node) curve in the parameter plane.
 
@@ -1622,6 +1736,13 @@ def fold_curve(
     settings : Settings, optional
     progress : callable, optional
         Called with each new :class:`CurvePoint`.
+    stop : callable, optional
+        ``stop(point, special)`` after each new point with the special points found so far:
+        True ends the curve there (``end == "stopped"``).
+    landing : sequence of float, optional
+        Values of ``p[0]`` the curve is to have points at exactly: a step that would pass one
+        is shortened onto it and corrected with ``p[0]`` held there (where that corrector
+        fails, the ordinary step is taken and the value skipped).
 
     Returns
     -------
@@ -1648,7 +1769,7 @@ def fold_curve(
     point = _start_point(start)
     if point.kind not in ("fold", "bt"):
         raise ValueError(f"a fold curve starts from a fold or BT point, not {point.kind!r}")
-    ev = _Evaluator(problem, point.x.size, s.newton_differences)
+    ev = _Evaluator(problem, point.x.size, s.newton_differences, s.forward_step)
     form = _Formulation("fold", s.method, ev.n, ev.B)
     form.set_vectors(point.v, point.w)
     u = form.state(point)
@@ -1667,7 +1788,7 @@ def fold_curve(
         if point.kind == "bt"
         else point
     )
-    tracer = _Tracer(ev, form, s, bounds, max_points, progress)
+    tracer = _Tracer(ev, form, s, bounds, max_points, progress, stop, landing)
     if point.kind == "bt":
         tracer.skip_first.add("bt")
     return tracer.run(first, u, t)
@@ -1682,6 +1803,8 @@ def hopf_curve(
     max_points: int = 200,
     settings: Settings | None = None,
     progress: Callable[[CurvePoint], None] | None = None,
+    stop: Callable[[CurvePoint, tuple[SpecialPoint, ...]], bool] | None = None,
+    landing: Sequence[float] | None = None,
 ) -> Curve:
     """Continue a Hopf curve in the parameter plane (``omega > 0`` along it).
 
@@ -1692,7 +1815,7 @@ def hopf_curve(
         A Hopf point from :func:`locate_hopf`, or a BT point (kind ``"bt"``, e.g. located on a
         fold curve): then the curve starts there with ``omega = 0`` and goes into
         ``omega > 0`` (the switch fold -> Hopf), and ``direction`` is not used.
-    direction, bounds, max_points, settings, progress
+    direction, bounds, max_points, settings, progress, stop, landing
         As for :func:`fold_curve`.
 
     Returns
@@ -1719,7 +1842,7 @@ def hopf_curve(
     point = _start_point(start)
     if point.kind not in ("hopf", "bt"):
         raise ValueError(f"a Hopf curve starts from a Hopf or BT point, not {point.kind!r}")
-    ev = _Evaluator(problem, point.x.size, s.newton_differences)
+    ev = _Evaluator(problem, point.x.size, s.newton_differences, s.forward_step)
     form = _Formulation("hopf", s.method, ev.n, ev.B)
     form.set_vectors(point.v, point.w)
     u = form.state(point)
@@ -1733,4 +1856,4 @@ def hopf_curve(
     else:
         t = _orient(_tangent(ev, form.system(), u), ev.n, direction)
         first = point
-    return _Tracer(ev, form, s, bounds, max_points, progress).run(first, u, t)
+    return _Tracer(ev, form, s, bounds, max_points, progress, stop, landing).run(first, u, t)

@@ -88,6 +88,12 @@ class NeutralPoint:
     lower_fold: float | None = None
     #: whether that fold was located (to xtol on its branch) or is an estimate
     lower_fold_located: bool = False
+    #: the largest residual of the augmented system the point was solved on (two-parameter
+    #: continuation, ``method = "codim2"``); ``None`` for the one-parameter tracer
+    residual: float | None = None
+    #: whether an eigenvalue other than the critical one(s) is on or over the axis at the
+    #: point (then it is not on the stability boundary); ``None`` where not checked
+    other_unstable: bool | None = None
 
     def to_dict(self) -> dict:
         return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
@@ -97,7 +103,10 @@ class NeutralPoint:
                 **({"bracket": list(self.bracket)} if self.bracket else {}),
                 **({} if self.lower_fold is None else
                    {"lower_fold": self.lower_fold,
-                    "lower_fold_located": self.lower_fold_located})}  # fmt: skip
+                    "lower_fold_located": self.lower_fold_located}),
+                **({} if self.residual is None else {"residual": self.residual}),
+                **({} if self.other_unstable is None else
+                   {"other_unstable": self.other_unstable})}  # fmt: skip
 
     @classmethod
     def from_dict(cls, d: dict, start: SteadyResult | None = None) -> NeutralPoint:
@@ -109,7 +118,10 @@ class NeutralPoint:
                    tuple(map(float, bracket)) if bracket else None, start,
                    float(d.get("curvature_shift", 0.0)),
                    None if d.get("lower_fold") is None else float(d["lower_fold"]),
-                   bool(d.get("lower_fold_located", False)))  # fmt: skip
+                   bool(d.get("lower_fold_located", False)),
+                   None if d.get("residual") is None else float(d["residual"]),
+                   None if d.get("other_unstable") is None
+                   else bool(d["other_unstable"]))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -127,9 +139,23 @@ class NeutralCurve:
     modes: str = "symmetric"
     xtol: float = 1e-3
     resumed: int = 0  # points taken from a checkpoint (``known``), not traced again
+    #: "trace" (this module: one-parameter continuation at each chi) or "codim2" (two-parameter
+    #: continuation of the fold and Hopf curves, :mod:`vesicle.bifurcation.neutral_codim2`)
+    method: str = "trace"
+    #: Bogdanov–Takens and cusp points found on the curves (codim2 only): chi, lambda,
+    #: located, residual, the test function, other_unstable, the two smallest eigenvalues
+    bt_points: list[dict] = field(default_factory=list)
+    cusp_points: list[dict] = field(default_factory=list)
+    #: the Jacobian the codim2 curves are defined by (:data:`.steady_codim2.FORMS`)
+    form: str = "spec"
 
     def to_dict(self) -> dict:
+        extra = {} if self.method == "trace" else {
+            "bt_points": list(self.bt_points), "cusp_points": list(self.cusp_points),
+            "form": self.form}  # fmt: skip
         return stamped({
+            "method": self.method,
+            **extra,
             "v": self.physics.v,
             "degree": self.discretisation.degree,
             "grid": self.discretisation.grid,

@@ -27,14 +27,16 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import brentq
 
 from vesicle.bifurcation import codim2
+from vesicle.geometry.surface import ShapeError
 from vesicle.model.parameters import Discretisation, Physics
+from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NEWTON_TOLERANCES, SteadyResult
 from vesicle.steady.problem import SteadyProblem
 
@@ -93,23 +95,41 @@ class SteadyEquations(codim2.Problem):
             self._kept = (key, problem)
         return self._kept[1]
 
-    @staticmethod
-    def state(steady: SteadyResult) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, p)`` of a converged steady state."""
-        x = np.concatenate([steady.a, steady.multipliers])
-        return x, np.array([math.log(steady.physics.chi), steady.physics.lam])
+    def state(self, steady: SteadyResult) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, p)`` of a converged steady state (its shape's coordinates in this problem's
+        basis: a state found in the symmetric basis is taken into the general one)."""
+        p = np.array([math.log(steady.physics.chi), steady.physics.lam])
+        a = np.asarray(steady.a, float)
+        basis = self.problem_at(p).basis
+        if a.size != basis.size:
+            a = self.problem_at(p).coefficients_of(steady.shape)
+        return np.concatenate([a, steady.multipliers]), p
 
     # --------------------------------------------------------------- equations
     def residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``G(x, p)``; NaN where the shape cannot be represented or solved for (a corrector's
+        wild iterate: the continuation refuses the step and halves it)."""
         P = self.problem_at(p)
         a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
-        shape = P.shape(a)
-        rate, flow = P.adot(a, self._sigma)
+        try:
+            shape = P.shape(a)
+            rate, flow = P.adot(a, self._sigma)
+        except (ShapeError, SolverError) as err:
+            log.debug("residual at p = %s: %s", p, err)
+            return np.full(a.size + 2, np.nan)
         self._sigma = flow.sigma
         G, _ = P.residual(shape, rate, mu, P.gradients(shape))
         return G
 
     def jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``G_y(x, p)``; NaN where the shape cannot be represented or solved for."""
+        try:
+            return self._jacobian(x, p)
+        except (ShapeError, SolverError) as err:
+            log.debug("Jacobian at p = %s: %s", p, err)
+            return np.full((x.size, x.size), np.nan)
+
+    def _jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         P = self.problem_at(p)
         a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
         M, _ = P.jacobian(a, sigma0=self._sigma)
@@ -119,7 +139,34 @@ class SteadyEquations(codim2.Problem):
         J = np.zeros((n + 2, n + 2))
         J[:n, :n] = M - np.einsum("k,kij->ij", mu, H) if self.form == "curvature" else M
         J[:n, n:], J[n:, :n] = -g.T, g
+        self._last_jacobian = (self._point_key(x, p), J)
         return J
+
+    @staticmethod
+    def _point_key(x: np.ndarray, p: np.ndarray) -> tuple:
+        return (np.asarray(x, float).tobytes(), np.asarray(p, float).tobytes())
+
+    def state_jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``G_y``, the exact derivative of the residual (with the multipliers' curvature
+        ``- mu . H``), for the rows of ``G`` in Newton's matrices: with ``form="spec"`` the
+        matrix :meth:`jacobian` returns is SPEC §9's operator, which is not; then Newton on
+        the augmented systems converged only linearly, and next to a cusp (where the fold
+        system's row along the null vector vanishes) not at all (v = 0.95, N = 4: correctors
+        stuck at residuals of 1e-3 to 1e-5).  Reuses the Jacobian of the same point."""
+        last = getattr(self, "_last_jacobian", None)
+        J = last[1] if last is not None and last[0] == self._point_key(x, p) else \
+            self.jacobian(x, p)  # fmt: skip
+        if self.form == "curvature":
+            return J
+        try:
+            a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
+            H = self.problem_at(p).constraint_hessians(a)
+        except (ShapeError, SolverError):
+            return np.full_like(J, np.nan)
+        out = J.copy()
+        n = a.size
+        out[:n, :n] -= np.einsum("k,kij->ij", mu, H)
+        return out
 
 
 @dataclass(frozen=True)
@@ -229,17 +276,29 @@ def locate_type_change(
     xtol: float = 1e-6,
     settings: codim2.Settings | None = None,
     progress: Callable[[dict], None] | None = None,
+    start: Callable[[str, float], codim2.CurvePoint] | None = None,
+    probes: Sequence[float] = (),
 ) -> TypeChange:
     """The ``chi`` in ``chi_bracket`` where the fold point (held ``chi``, free ``lambda``) and
     the Hopf point of the other sheet have the same ``lambda``: Brent's method on
     ``lambda_hopf(chi) - lambda_fold(chi)``, each point solved for from the last one found.
     ``fold`` and ``hopf`` are located points near the bracket (:func:`codim2.locate_fold`,
     :func:`codim2.locate_hopf` from states on the two sheets).  Raises ``ValueError`` if the
-    gap does not change sign over the bracket, ``RuntimeError`` if a point does not converge."""
+    gap does not change sign over the bracket, ``RuntimeError`` if a point does not converge.
+    ``start(kind, chi)``, if given, is the point each solve starts from (e.g. the nearest point
+    of its own curve), used where it is nearer in chi than the last point found of that kind.
+    ``probes``: values of chi inside the bracket where the gap is evaluated in turn, from the
+    high end down, before Brent's method, which then runs between the first two of opposite
+    sign (the high end first: at v = 0.95 the low end of the overlap is the BT point, where the
+    Hopf point is hardest to solve)."""
     last = {"fold": fold, "hopf": hopf}
 
     def at(kind: str, chi: float) -> codim2.CurvePoint:
         q = last[kind]
+        if start is not None:  # the nearer in chi of the last found and the given start
+            other = start(kind, chi)
+            if abs(other.p[0] - math.log(chi)) < abs(q.p[0] - math.log(chi)):
+                q = other
         p = np.array([math.log(chi), q.p[1]])
         if kind == "fold":
             r = codim2.locate_fold(equations, q.x, p, free=1, v=q.v, w=q.w, settings=settings)
@@ -259,11 +318,17 @@ def locate_type_change(
         return float(h.p[1] - f.p[1])
 
     lo, hi = sorted(chi_bracket)
-    g_lo, g_hi = gap(lo), gap(hi)
-    if g_lo * g_hi > 0:
+    nodes = [hi, *sorted((c for c in probes if lo < c < hi), reverse=True), lo]
+    gaps = [gap(nodes[0])]
+    for c in nodes[1:]:  # down to the first change of sign
+        gaps.append(gap(c))
+        if gaps[-2] * gaps[-1] <= 0:
+            break
+    if gaps[-2] * gaps[-1] > 0:
         raise ValueError(f"the Hopf and fold points do not cross in chi = [{lo:g}, {hi:g}] "
-                         f"(gaps {g_lo:+.3g}, {g_hi:+.3g})")  # fmt: skip
-    chi = brentq(gap, lo, hi, xtol=xtol)
+                         f"(gaps {', '.join(f'{g:+.3g}' for g in gaps)} from the top)")
+    k = len(gaps) - 1
+    chi = brentq(gap, nodes[k], nodes[k - 1], xtol=xtol)
     f, h = at("fold", chi), at("hopf", chi)
     return TypeChange(chi=float(chi), lambda_c=float(0.5 * (f.p[1] + h.p[1])),
                       omega_R=float(h.omega), fold=f, hopf=h, gap=float(h.p[1] - f.p[1]),

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -12,6 +13,7 @@ from vesicle.bifurcation.branch import branch, reach
 from vesicle.bifurcation.checkpoint import Checkpoint, states_folder
 from vesicle.bifurcation.critical import critical_lambda, critical_summary
 from vesicle.bifurcation.neutral import neutral_curve
+from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
 from vesicle.cli.base import (
     check_output,
     check_scheduler,
@@ -450,8 +452,11 @@ def _clear_states(folder: Path, resume: bool, overwrite: bool) -> None:
         path.unlink()
 
 
-def _neutral_kept(out: str | None, states: str | None) -> str:
+def _neutral_kept(out: str | None, states: str | None, method: str = "trace") -> str:
     """What an interrupted ``vesicle neutral`` kept, and how to go on."""
+    if method == "codim2":
+        return ("nothing was kept: the two-parameter continuation writes its curve when it is "
+                "complete (--continuation trace keeps each point as it is found)")
     if out is None and states is None:
         return "nothing was kept (give --out to keep each point as it is found)"
     if out is None:
@@ -463,6 +468,45 @@ def _neutral_kept(out: str | None, states: str | None) -> str:
     folder = states or states_folder(out)
     return (f"{points} point{'s' if points != 1 else ''} kept in {out} (states in {folder}); "
             "continue with the same command and --resume")  # fmt: skip
+
+
+def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json, config_path,
+                    options) -> None:  # fmt: skip
+    """``vesicle neutral --continuation codim2``: the curve, then its points, type change, BT and
+    cusp points printed (or the JSON)."""
+    try:
+        _configure(ctx, options, config_path)
+        physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
+        curve = neutral_curve_codim2(physics, chis, disc, orientation=orientation, modes=modes,
+                                     jacobian=jacobian, form=form,
+                                     progress=_echo_progress)  # fmt: skip
+    except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
+        fail(str(err))
+    result = {**curve.to_dict(), "command": command_line(ctx)}
+    if curve.failed:  # what was found is written; the command still fails
+        _emit_json(result, out, as_json)
+        fail("no point at: " + "; ".join(f"chi = {f['chi']:.4g} ({f['error']})"
+                                         for f in curve.failed))  # fmt: skip
+    if _emit_json(result, out, as_json):
+        return
+    for p in result["points"]:
+        note = "" if p["located"] else f" (estimate: not converged, residual {p['residual']:.2g})"
+        if p.get("other_unstable"):
+            note += " (another eigenvalue unstable: not a stability boundary)"
+        if p.get("lower_fold") is not None:
+            note += f" (past the lower sheet's fold at {p['lower_fold']:.6g})"
+        click.echo(f"chi={p['chi']:<10.5g} lambda_c={p['lambda_c']:<10.6g} {p['bifurcation']:<12} "
+                   f"omega_R={p['omega_R']:.4g}{note}")  # fmt: skip
+    t = result["type_change"]
+    if t:
+        how = "located" if t.get("located") else "NOT located (estimate)"
+        click.echo(f"type change at chi = {t['chi']:.6g} (lambda_c = {t['lambda_c']:.6g}, "
+                   f"{how}): {t['below']} below, {t['above']} above")  # fmt: skip
+    for key, name in (("bt_points", "Bogdanov-Takens"), ("cusp_points", "cusp")):
+        for q in result[key]:
+            how = "located" if q["located"] else "not located"
+            click.echo(f"{name} point at chi = {q['chi']:.6g}, lambda = {q['lambda']:.6g} "
+                       f"({how}, residual {q['residual']:.2g})")  # fmt: skip
 
 
 def _chi_values(text: str, points: int | None) -> list[float]:
@@ -495,6 +539,27 @@ def _chi_values(text: str, points: int | None) -> list[float]:
     help="Relative width in chi to which a change of bifurcation type is located.",
 )
 @click.option("--no-type-change", is_flag=True, help="Do not locate the change of type.")
+@click.option(
+    "--continuation",
+    "continuation",
+    type=click.Choice(["codim2", "trace"]),
+    default="codim2",
+    show_default=True,
+    help="codim2: the fold and Hopf curves continued in (chi, lambda) on their augmented "
+    "systems, with the Bogdanov-Takens and cusp points and the change of type located, then "
+    "each chi solved on its curve (every point 'located' only where its system converged). "
+    "trace: the older one-parameter tracer (a branch in lambda at each chi); --xtol, "
+    "--type-tol, --no-type-change, --states and --resume apply to it only.",
+)
+@click.option(
+    "--form",
+    type=click.Choice(["spec", "curvature"]),
+    default="spec",
+    show_default=True,
+    help="codim2: the Jacobian the curves are defined by: SPEC 9's operator (what `critical` "
+    "and --continuation trace compute) or the Newton matrix with the multipliers' curvature (its "
+    "fold is exactly the branch's turning point).",
+)
 @_ORIENTATION
 @_STABILITY_MODES
 @_JACOBIAN
@@ -523,13 +588,26 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
-@interruptible(lambda p: _neutral_kept(p["out"], p["states"]))
-def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, orientation, modes,
-                    jacobian, workers, scheduler, out, states, resume, overwrite, as_json,
-                    config_path, **options) -> None:  # fmt: skip
-    """Neutral curve lambda_c(chi) at fixed v: the critical point continued in chi, with the
+@interruptible(lambda p: _neutral_kept(p["out"], p["states"], p.get("continuation", "trace")))
+def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, continuation, form,
+                    orientation, modes, jacobian, workers, scheduler, out, states, resume,
+                    overwrite, as_json, config_path, **options) -> None:  # fmt: skip
+    """Neutral curve lambda_c(chi) at fixed v: the edge of stable tank-treading, with the
     bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
     chis = _chi_values(chi_text, points)
+    for name, value in (("--xtol", xtol), ("--type-tol", type_tol)):  # refused whichever method
+        if not (math.isfinite(value) and value > 0):
+            fail(f"{name} must be a positive number, got {value}")
+    if continuation == "codim2":
+        for name, given in (("--states", states is not None), ("--resume", resume)):
+            if given:
+                fail(f"{name} applies to --continuation trace (the codim2 curve is written "
+                     "to --out when it is complete)")  # fmt: skip
+        if out is not None:
+            check_output(out, overwrite=overwrite, resume=False)
+        _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
+                        config_path, options)  # fmt: skip
+        return
     if resume and out is None:
         fail("--resume continues the curve of an --out file: give --out")
     if resume and overwrite:

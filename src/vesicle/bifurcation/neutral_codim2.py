@@ -1,0 +1,641 @@
+"""Neutral curves ``lambda_c(chi)`` by two-parameter continuation (issue 40, SPEC §16).
+
+What is computed
+----------------
+The neutral curve at fixed ``v`` is the upper edge (in ``lambda``) of the region where a
+stable steady tank-treading state exists: at each ``chi`` the largest ``lambda`` at which a
+steady state loses stability as ``lambda`` grows (the in-plane branch; the vorticity branch is
+stable *above* its curve, and there the smallest ``lambda`` counts).  The candidates are the
+points of the fold and Hopf curves of the steady equations (:mod:`.steady_codim2`) where no
+eigenvalue other than the critical one(s) is on or over the axis.  On an S-shaped branch (v =
+0.95 near chi = 0.25) the lower sheet's fold and the upper sheet's Hopf point are both
+candidates: tank-treading goes on past the fold on the upper sheet up to its Hopf point when
+that lies higher, and the curve changes type where the two meet (the *type change*, located
+by Brent's method on the difference of the two points solved at the same ``chi``).
+
+How
+---
+1. **A seed** at the requested ``chi`` nearest 1 (the largest for the vorticity branch): the
+   bracketing search :func:`vesicle.bifurcation.critical.critical_lambda` gives a stable
+   state just below ``lambda_c``, and the Hopf (or fold) point is solved for from it on its
+   augmented system.  Where the bracket fails (a fold it cannot see) the branch is stepped in
+   ``lambda`` from a stable state to the first loss of stability (:func:`_first_loss`).
+2. **Its curve continued** both ways in ``chi`` by pseudo-arclength
+   (:func:`vesicle.bifurcation.codim2.hopf_curve` / ``fold_curve``), with its Bogdanov–Takens
+   and cusp points located on the way; from a BT point with no other unstable eigenvalue the
+   other curve is continued too (the switch at BT).
+3. **Coverage**: a requested ``chi`` with no candidate yet (below a BT point where the Hopf
+   curve ends) gets a new seed by :func:`_first_loss` there, and its curve is continued (at
+   v = 0.95: the lower sheet's fold curve, up to its cusp).
+4. **The type change** where the winning candidate changes kind, located on the augmented
+   systems (:func:`.steady_codim2.locate_type_change`), or at a BT point where the curves
+   meet there.
+5. **Each requested chi solved** on its winning curve at that ``chi``: the curves land on the
+   requested values of ``chi`` (a step that would pass one is shortened onto it and corrected
+   with ``chi`` held), so a reported point is normally a curve point; otherwise Newton on the
+   augmented system from the nearest curve point.  ``located`` means that system converged to
+   ``settings.ftol``; its residual is reported.
+
+Every reported point carries ``located``, ``residual`` and ``other_unstable``; a point that did
+not converge is reported as an estimate (``located = False``, the curve's interpolated value)
+and never compared with the paper.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from vesicle.bifurcation import codim2
+from vesicle.bifurcation.branch import reach
+from vesicle.bifurcation.critical import critical_lambda, vorticity_start_lambda
+from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint
+from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_change
+from vesicle.geometry.diagnostics import diagnose
+from vesicle.geometry.surface import ShapeError
+from vesicle.model.parameters import Discretisation, Physics
+from vesicle.model.theory import misbah_critical_lambda
+from vesicle.solve.solver import SolverError
+from vesicle.steady.newton import NewtonError, steady_tank_treading
+from vesicle.steady.stability import default_modes, stability
+
+__all__ = ["DEFAULT_SETTINGS", "neutral_curve_codim2"]
+
+log = logging.getLogger(__name__)
+
+_FAILURES = (NewtonError, ShapeError, SolverError)
+
+#: The continuation's settings for the vesicle: residual to 1e-8 (the solves' own accuracy is
+#: about 1e-9) and forward differences with a 1e-5 step for the Newton matrices' second
+#: derivatives (the Jacobian carries noise of about 1e-9: a sqrt(eps) step would amplify it to
+#: 7 %; measured at N = 4 on 16x32, chi = 3.162: the same Hopf point to 5e-8 in lambda as with
+#: central differences, 11 Jacobians instead of 17); the step grows after correctors of up to 3
+#: iterations (linear convergence at that rate); a cusp is located to 1e-7 in arclength (the
+#: default 1e-11 took 15 Brent evaluations, 100 s at N = 4, for digits nothing uses); a
+#: corrector not converged after 3 iterations goes on with central differences (next to a cusp
+#: the forward ones stalled at residuals of 1e-3); a corrector gives up after 5 iterations (it
+#: converges in 2-4 where it converges at all: next to the cusp of the S at v = 0.95 failures
+#: of 8 iterations cost most of the fold curve).
+DEFAULT_SETTINGS = codim2.Settings(ftol=1e-8, step_tol=1e-6, forward_step=1e-5, ds=0.1,
+                                   ds_max=0.6, target_iterations=3, locate_tol=1e-7,
+                                   central_after=3, max_iter=5)  # fmt: skip
+
+#: Relative step in lambda of the search for the first loss of stability (:func:`_first_loss`).
+LOSS_STEP = 1.08
+
+#: A curve is given up after this many points in a row with another unstable eigenvalue
+#: (it is not the stability boundary there; the points found are kept and reported).
+OFF_BOUNDARY = 3
+
+#: A fold curve is given up once its chi has turned back by this much in log chi (its
+#: cusp passed: the points found are kept).
+TURNED_BACK = 0.05
+
+#: A requested chi this close (relative) to a curve's end counts as covered by it.
+_COVER = 1e-9
+
+
+@dataclass
+class _Curve:
+    """One continued curve with its converged points ordered as traced."""
+
+    kind: str  # "hopf" or "fold"
+    curve: codim2.Curve
+
+    def points(self) -> list[codim2.CurvePoint]:
+        """Its points, and the located BT point where it ends at one (a Hopf curve's last
+        step goes from omega about 0.1 straight to BT: the BT point is its end)."""
+        pts = list(self.curve.points)
+        bt = [sp for sp in self.curve.special if sp.kind == "bt" and sp.located]
+        if self.curve.end == "bt" and bt:
+            pts.append(bt[-1].point)
+        return pts
+
+    def segments(self):
+        """Consecutive pairs of converged points with no other unstable eigenvalue."""
+        for a, b in itertools.pairwise(self.points()):
+            if a.converged and b.converged and not (a.other_unstable or b.other_unstable):
+                yield a, b
+
+
+@dataclass
+class _Candidate:
+    kind: str
+    lam: float
+    near: codim2.CurvePoint
+    curve: _Curve
+
+
+def _candidates(curves: Sequence[_Curve], chi: float) -> list[_Candidate]:
+    """Each curve's crossings of ``log chi`` (linear between its points)."""
+    t = math.log(chi)
+    out = []
+    for c in curves:
+        for a, b in c.segments():
+            lo, hi = sorted((a.p[0], b.p[0]))
+            if lo - _COVER <= t <= hi + _COVER:
+                s = 0.0 if hi == lo else (t - a.p[0]) / (b.p[0] - a.p[0])
+                lam = float(a.p[1] + s * (b.p[1] - a.p[1]))
+                near = a if s < 0.5 else b
+                if near.kind != c.kind:  # a BT end: Newton starts from the curve's own point
+                    near = b if near is a else a
+                out.append(_Candidate(c.kind, lam, near, c))
+        if c.curve.points and c.curve.points[0].converged:  # a curve of one point (its start)
+            q = c.curve.points[0]
+            if len(c.curve.points) == 1 and abs(q.p[0] - t) <= _COVER and not q.other_unstable:
+                out.append(_Candidate(c.kind, float(q.p[1]), q, c))
+    return out
+
+
+def _winner(curves: Sequence[_Curve], chi: float, side: int) -> _Candidate | None:
+    cands = _candidates(curves, chi)
+    return max(cands, key=lambda c: side * c.lam) if cands else None
+
+
+@dataclass
+class _Context:
+    physics: Physics
+    disc: Discretisation
+    eq: SteadyEquations
+    modes: str
+    orientation: str
+    jacobian: str
+    settings: codim2.Settings
+    side: int
+    bounds: list
+    max_points: int
+    say: Callable[[dict], None]
+    landing: list[float] = field(default_factory=list)  # log chi of the requested points
+    curves: list[_Curve] = field(default_factory=list)
+    special: list[codim2.SpecialPoint] = field(default_factory=list)
+
+    def at(self, chi: float, lam: float) -> Physics:
+        return self.physics.replace(chi=float(chi), lam=float(lam))
+
+
+def _locate(ctx: _Context, kind: str, x, p, free: int = 1, near: codim2.CurvePoint | None = None):
+    """Newton on the fold or Hopf system from ``(x, p)`` with ``p[1 - free]`` held."""
+    s = ctx.settings
+    if kind == "fold":
+        v = w = None
+        if near is not None and near.kind in ("fold", "bt"):
+            v, w = near.v, near.w
+        return codim2.locate_fold(ctx.eq, x, p, free=free, v=v, w=w, settings=s)
+    omega = near.omega if near is not None and near.kind == "hopf" else None
+    v = w = None
+    if near is not None and near.kind == "hopf":
+        v, w = near.v, near.w
+    return codim2.locate_hopf(ctx.eq, x, p, free=free, omega=omega, v=v, w=w, settings=s)
+
+
+def _leading(state, modes: str) -> tuple[float, float]:
+    """(growth, frequency) of the most unstable mode of a steady state."""
+    om = stability(state, modes=modes).omega  # rows (omega_R, omega_I)
+    i = int(np.argmax(om[:, 1]))
+    return float(om[i, 1]), float(abs(om[i, 0]))
+
+
+def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
+    """The first loss of stability of the branch from a stable state at ``lam0``, stepping
+    ``lambda`` by :data:`LOSS_STEP` (down for the vorticity branch), solved for on its
+    augmented system: a Hopf point where the leading eigenvalue crossing is complex, a fold
+    where it is real or where Newton finds no state one step further (halving the step four
+    times first).  Raises ``NewtonError`` where no loss is found in the parameter box."""
+    side, lo, hi = ctx.side, ctx.bounds[1][0], ctx.bounds[1][1]
+    state = reach(ctx.at(chi, lam0), ctx.disc, orientation=ctx.orientation, jacobian=ctx.jacobian)
+    growth, freq = _leading(state, ctx.modes)
+    while growth >= 0:  # start lower (higher for the vorticity branch) until stable
+        lam = state.lam * LOSS_STEP ** (-2 * side)
+        if not lo <= lam <= hi:
+            raise NewtonError(f"no stable steady state at chi = {chi:.4g} for lam in "
+                              f"[{lo:g}, {hi:g}]")  # fmt: skip
+        state = reach(ctx.at(chi, lam), ctx.disc, orientation=ctx.orientation,
+                      jacobian=ctx.jacobian)  # fmt: skip
+        growth, freq = _leading(state, ctx.modes)
+    ratio = LOSS_STEP**side
+    last: tuple[float, float] | None = None  # the previous state's (lam, growth)
+    while True:
+        fold = _fold_ahead(ctx, chi, state, growth, freq, last, ratio)
+        if fold is not None:
+            return fold
+        last = (state.lam, growth)
+        lam, halvings, nxt = state.lam * ratio, 0, None
+        if not lo <= lam <= hi:
+            raise NewtonError(f"no loss of stability at chi = {chi:.4g} for lam up to "
+                              f"{state.lam:.4g} (the box ends at {hi if side > 0 else lo:g})")
+        while nxt is None:
+            try:
+                nxt = steady_tank_treading(ctx.at(chi, lam), ctx.disc, initial=state,
+                                           jacobian=ctx.jacobian)  # fmt: skip
+            except _FAILURES:
+                halvings += 1
+                if halvings > 4:  # a fold between state.lam and lam
+                    ctx.say({"chi": chi, "first_loss": "fold beyond", "lam": state.lam})
+                    x, p = ctx.eq.state(state)
+                    return _locate(ctx, "fold", x, p)
+                lam = state.lam * ratio ** (0.5**halvings)
+        g2, f2 = _leading(nxt, ctx.modes)
+        ctx.say({"chi": chi, "lam": nxt.lam, "growth": g2})
+        if g2 >= 0:
+            # the crossing between the two states, linear in the growth rate
+            lam_c = state.lam + (nxt.lam - state.lam) * (-growth) / (g2 - growth)
+            # the kind of the eigenvalue that crossed (a real pair may merge into a complex
+            # one before it crosses, next to a cusp)
+            p = np.array([math.log(chi), lam_c])
+            if f2 > 1e-6:  # from the unstable state, whose leading pair is the one that crossed
+                x, _ = ctx.eq.state(nxt)
+                return codim2.locate_hopf(ctx.eq, x, p, free=1, omega=f2, settings=ctx.settings)
+            x, _ = ctx.eq.state(state)
+            return _locate(ctx, "fold", x, p)
+        state, growth, freq = nxt, g2, f2
+
+
+def _fold_ahead(ctx, chi, state, growth, freq, last, ratio) -> codim2.CurvePoint | None:
+    """The fold solved for directly when the leading eigenvalue is real and its square,
+    extrapolated linearly in lambda from the last two states (the square-root law of a fold),
+    reaches zero within the next step; ``None`` otherwise or where that solve does not
+    converge beyond ``state`` (then the stepping goes on)."""
+    if last is None or freq > 1e-6 or not growth < 0 or not last[1] < growth:
+        return None
+    (lam1, g1), lam2 = last, state.lam
+    lam_f = lam2 + growth**2 * (lam2 - lam1) / (g1**2 - growth**2)
+    if not (lam_f - lam2) * (lam2 * ratio - lam_f) > 0:  # not within the next step
+        return None
+    x, _ = ctx.eq.state(state)
+    try:  # a speculative solve: a few iterations only (a fold in reach converges in 3-4)
+        point = codim2.locate_fold(ctx.eq, x, np.array([math.log(chi), lam_f]), free=1,
+                                   settings=replace(ctx.settings, max_iter=3))  # fmt: skip
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    if point.converged and (point.p[1] - lam2) * (ratio - 1.0) > 0:
+        ctx.say({"chi": chi, "first_loss": "fold", "predicted": lam_f, "lam": float(point.p[1])})
+        return point
+    return None
+
+
+def _seed(ctx: _Context, chi: float) -> codim2.CurvePoint:
+    """The first critical point of the trace, at ``chi`` (see the module docstring)."""
+    try:
+        c = critical_lambda(ctx.at(chi, 1.0), ctx.disc, modes=ctx.modes,
+                            orientation=ctx.orientation, jacobian=ctx.jacobian)  # fmt: skip
+        stable = [(lam, s) for (lam, _, w_i), s in zip(c.history, c.states, strict=True)
+                  if w_i < 0]  # fmt: skip
+        if not stable:
+            raise NewtonError("the bracketing search kept no stable state")
+        _, state = min(stable, key=lambda q: abs(q[0] - c.lambda_c))
+        x, _ = ctx.eq.state(state)
+        kind = "hopf" if c.omega_R > 1e-6 else "fold"
+        point = _locate(ctx, kind, x, np.array([math.log(chi), c.lambda_c]))
+        if point.converged:
+            return point
+        log.warning("neutral curve seed at chi = %.4g: the %s point did not converge from the "
+                    "bracket; stepping the branch instead", chi, kind)  # fmt: skip
+    except (*_FAILURES, RuntimeError, ValueError) as err:
+        log.warning("neutral curve seed at chi = %.4g: %s; stepping the branch instead", chi, err)
+    return _first_loss(ctx, chi, _start_lambda(ctx, chi))
+
+
+def _start_lambda(ctx: _Context, chi: float) -> float:
+    """A lambda on the stable side of the curve at ``chi``: 0.9 times the nearest curve point's
+    lambda (1.1 on the vorticity branch), else the leading-order estimate's half (the
+    vorticity branch: :func:`vorticity_start_lambda`)."""
+    pts = [q for c in ctx.curves for q in c.curve.points if q.converged]
+    if pts:
+        q = min(pts, key=lambda q: abs(q.p[0] - math.log(chi)))
+        return float(q.p[1]) * (0.9 if ctx.side > 0 else 1.1)
+    if ctx.side < 0:
+        return vorticity_start_lambda(ctx.physics.v)
+    return 0.5 * max(1.0, misbah_critical_lambda(ctx.physics.v))
+
+
+def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kind: str,
+              directions=((1.0, 0.0), (-1.0, 0.0))) -> None:  # fmt: skip
+    """Continue a curve from ``start`` (both ways unless from a BT point), and from each BT
+    point on it with no other unstable eigenvalue the other curve."""
+    trace = codim2.hopf_curve if kind == "hopf" else codim2.fold_curve
+    from_bt = isinstance(start, codim2.SpecialPoint)
+    start_point = start.point if from_bt else start
+    for d in directions[:1] if from_bt and kind == "hopf" else directions:
+        ctx.say({"curve": kind, "direction": "up" if d[0] > 0 else "down"})
+
+        # off-boundary points in a row; the start's log chi; the farthest reached (times the
+        # way the curve goes, appended after its first step)
+        run = [0, float(start_point.p[0]), 0.0]
+
+        def stop(point, special, kind=kind, run=run):
+            # a curve that is not a stability boundary (another eigenvalue unstable on
+            # OFF_BOUNDARY points in a row); a fold curve whose chi has turned back (past its
+            # cusp: the S's other fold lies below the first, never the edge of the stable
+            # region) by TURNED_BACK in log chi
+            run[0] = run[0] + 1 if point.other_unstable else 0
+            if run[0] >= OFF_BOUNDARY:
+                return True
+            if len(run) == 3:  # the first step sets the way the curve goes in chi
+                run.append(1.0 if point.p[0] >= run[1] else -1.0)
+                run[2] = run[3] * run[1]
+            way = run[3]
+            run[2] = max(run[2], way * point.p[0])  # the farthest reached that way
+            return kind == "fold" and way * point.p[0] < run[2] - TURNED_BACK
+
+        curve = trace(ctx.eq, start, direction=d, bounds=ctx.bounds, max_points=ctx.max_points,
+                      settings=ctx.settings, stop=stop, landing=ctx.landing,
+                      progress=lambda q, kind=kind: ctx.say(_point_summary(kind, q)))  # fmt: skip
+        ctx.curves.append(_Curve(kind, curve))
+        log.info("%s curve: %d points, end %s", kind, len(curve.points), curve.end)
+        for sp in curve.special:
+            ctx.special.append(sp)
+            if sp.kind == "bt" and sp.located and not sp.point.other_unstable and \
+                    not (from_bt and sp is start):  # fmt: skip
+                other = "fold" if kind == "hopf" else "hopf"
+                ctx.say({"switch": f"{kind} -> {other} at BT", "chi": math.exp(sp.point.p[0])})
+                _continue(ctx, sp, other, directions=(d,))
+
+
+def _point_summary(kind: str, q: codim2.CurvePoint) -> dict:
+    return {"curve": kind, "chi": math.exp(q.p[0]), "lam": float(q.p[1]),
+            "omega_R": float(q.omega), "converged": bool(q.converged),
+            "other_unstable": bool(q.other_unstable)}  # fmt: skip
+
+
+def _state_numbers(ctx: _Context, q: codim2.CurvePoint) -> tuple[float, float, float]:
+    """psi and D of the critical state, and its curvature shift (the leading growth rate of
+    the pencil with the multipliers' curvature minus SPEC §9's, at the critical eigenvalue)."""
+    P = ctx.eq.problem_at(q.p)
+    a, mu = q.x[:-2], q.x[-2:]
+    d = diagnose(P.shape(a))
+    shift = 0.0
+    try:
+        J = ctx.eq.jacobian(q.x, q.p)
+        H = P.constraint_hessians(a)
+        n = a.size
+        Jc = J.copy()
+        if ctx.eq.form == "spec":
+            Jc[:n, :n] -= np.einsum("k,kij->ij", mu, H)
+        else:
+            J[:n, :n] += np.einsum("k,kij->ij", mu, H)
+        s_spec = codim2.finite_eigenvalues(J, ctx.eq.mass)
+        s_curv = codim2.finite_eigenvalues(Jc, ctx.eq.mass)
+        target = 1j * q.omega
+        shift = float(s_curv[np.argmin(np.abs(s_curv - target))].real
+                      - s_spec[np.argmin(np.abs(s_spec - target))].real)  # fmt: skip
+    except (np.linalg.LinAlgError, ValueError) as err:  # reported, not hidden
+        log.warning("curvature shift at chi = %.4g not computed: %s", math.exp(q.p[0]), err)
+        shift = math.nan
+    return float(d.psi), float(d.D), shift
+
+
+def _report(ctx: _Context, chi: float, cand: _Candidate, t0: float,
+            lower: _Candidate | None) -> NeutralPoint:  # fmt: skip
+    """The candidate solved for at exactly ``chi``: a located point, else the estimate."""
+    q = cand.near
+    p = np.array([math.log(chi), cand.lam])
+    try:
+        if q.converged and q.p[0] == p[0]:  # the curve landed on this chi: solved there
+            r = q
+        else:
+            r = _locate(ctx, cand.kind, q.x, p, near=q)
+    except (*_FAILURES, np.linalg.LinAlgError, ValueError) as err:
+        log.warning("chi = %.4g: the %s point was not solved for (%s)", chi, cand.kind, err)
+        r = None
+    if r is None or not r.converged:
+        lam, located, residual, other, omega = cand.lam, False, (
+            math.inf if r is None else float(r.residual)), bool(q.other_unstable), float(q.omega)
+        numbers = _state_numbers(ctx, q)
+    else:
+        lam, located, residual, other, omega = (float(r.p[1]), True, float(r.residual),
+                                                bool(r.other_unstable), float(r.omega))
+        numbers = _state_numbers(ctx, r)
+    lower_fold, lower_located = None, False
+    if lower is not None:
+        f = lower.near if lower.near.converged and lower.near.p[0] == math.log(chi) else \
+            _locate(ctx, "fold", lower.near.x, np.array([math.log(chi), lower.lam]),
+                    near=lower.near)  # fmt: skip
+        lower_fold, lower_located = (float(f.p[1]), True) if f.converged else (lower.lam, False)
+    psi, D, shift = numbers
+    kind = "hopf" if cand.kind == "hopf" else "saddle-node"
+    return NeutralPoint(float(chi), lam, kind, omega if kind == "hopf" else 0.0, psi, D, located,
+                        time.perf_counter() - t0, None, None, shift, lower_fold, lower_located,
+                        residual=residual, other_unstable=other)  # fmt: skip
+
+
+def _extent(curve: _Curve) -> tuple[float, float]:
+    """The range of log chi its candidate segments cover."""
+    ts = [q.p[0] for seg in curve.segments() for q in seg]
+    return (min(ts), max(ts)) if ts else (math.inf, -math.inf)
+
+
+def _nearest(curve: _Curve, t: float) -> codim2.CurvePoint:
+    """Its candidate point (of its own kind: not a BT end) nearest ``log chi = t``."""
+    return min((q for seg in curve.segments() for q in seg if q.kind == curve.kind),
+               key=lambda q: abs(q.p[0] - t))  # fmt: skip
+
+
+def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dict | None]:
+    """Where the winning candidate changes kind along the curves' own points: the two curves
+    that swap, then Brent's method on their difference over the range of chi both cover
+    (each evaluation solves both points at that chi on their augmented systems, from the
+    nearest point of their own curve, so that neither jumps to another sheet), or their BT
+    point where they meet only there."""
+    grid = sorted({float(math.exp(q.p[0])) for c in ctx.curves for q in c.curve.points
+                   if q.converged} | set(chis))  # fmt: skip
+    grid = [x for x in grid if chis[0] <= x <= chis[-1]]
+    kinds = [(x, _winner(ctx.curves, x, ctx.side)) for x in grid]
+    kinds = [(x, w) for x, w in kinds if w is not None]
+    for (x0, w0), (x1, w1) in itertools.pairwise(kinds):
+        if w0.kind == w1.kind:
+            continue
+        names = {"below": "hopf" if w0.kind == "hopf" else "saddle-node",
+                 "above": "hopf" if w1.kind == "hopf" else "saddle-node"}  # fmt: skip
+        fold, hopf = (w0, w1) if w0.kind == "fold" else (w1, w0)
+        (f_lo, f_hi), (h_lo, h_hi) = _extent(fold.curve), _extent(hopf.curve)
+        lo, hi = max(f_lo, h_lo), min(f_hi, h_hi)
+        estimate = {"chi": math.sqrt(x0 * x1), "bracket": [x0, x1], "located": False,
+                    "lambda_c": 0.5 * (w0.lam + w1.lam), "omega_R": float(hopf.near.omega),
+                    **names}  # fmt: skip
+        if hi - lo < 1e-6:  # the curves meet at one point only: their BT point
+            bt = [sp for sp in ctx.special if sp.kind == "bt" and sp.located and
+                  abs(sp.point.p[0] - lo) < 1e-5 and not sp.point.other_unstable]  # fmt: skip
+            if bt:
+                q = bt[0].point
+                return {"chi": math.exp(q.p[0]), "lambda_c": float(q.p[1]), "omega_R": 0.0,
+                        "located": True, "at": "bt", "residual": float(bt[0].residual),
+                        **names}, None  # fmt: skip
+            return {**estimate, "error": "the fold and Hopf curves do not overlap in chi"}, None
+        # inside the overlap, away from its ends (a cusp at one: the fold at fixed chi is
+        # singular there)
+        margin = min(0.01, 0.1 * (hi - lo))
+        a, b = math.exp(lo + 0.5 * margin), math.exp(hi - margin)
+        # the gap is probed from the switch the curves' points show, outwards, before Brent
+        probes = [math.exp(lo + f * (hi - lo)) for f in (0.25, 0.5, 0.75)]
+        try:
+            change = locate_type_change(
+                ctx.eq, _nearest(fold.curve, math.log(a)), _nearest(hopf.curve, math.log(a)),
+                (a, b), settings=ctx.settings, probes=probes,
+                progress=lambda d: ctx.say({"type_change": d}),
+                start=lambda kind, chi, f=fold.curve, h=hopf.curve: _nearest(
+                    f if kind == "fold" else h, math.log(chi)))  # fmt: skip
+        except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+            log.warning("type change between chi = %.4g and %.4g not located: %s", a, b, err)
+            return {**estimate, "error": str(err)}, None
+        d = change.to_dict()
+        d.update({"bracket": [a, b], "at": "crossing", **names,
+                  "other_unstable": bool(change.fold.other_unstable or
+                                         change.hopf.other_unstable)})  # fmt: skip
+        return d, None
+    return None, None
+
+
+def _special_dicts(ctx: _Context, kind: str) -> list[dict]:
+    out = []
+    for sp in ctx.special:
+        if sp.kind != kind:
+            continue
+        q = sp.point
+        eig = np.asarray(q.eigenvalues)
+        two = sorted(eig, key=abs)[:2] if eig.size else []
+        out.append({"chi": math.exp(q.p[0]), "lambda": float(q.p[1]), "located": bool(sp.located),
+                    "residual": float(sp.residual), "test": float(sp.test),
+                    "other_unstable": bool(q.other_unstable),
+                    "smallest_eigenvalues": [[float(z.real), float(z.imag)] for z in two]})
+    return out
+
+
+def neutral_curve_codim2(
+    physics: Physics | float,
+    chi: Sequence[float],
+    discretisation: Discretisation | None = None,
+    *,
+    orientation: str = "flow",
+    modes: str | None = None,
+    jacobian: str = "linearised",
+    form: str = "spec",
+    lam_range: tuple[float, float] = (0.5, 100.0),
+    settings: codim2.Settings | None = None,
+    max_points: int = 80,
+    progress: Callable[[dict], None] | None = None,
+) -> NeutralCurve:
+    """The neutral curve through the requested ``chi`` by two-parameter continuation (see the
+    module docstring).
+
+    Parameters
+    ----------
+    physics : Physics or float
+        Its ``v`` and ``flow`` (or just ``v``).
+    chi : sequence of float
+        The shear rates to report (positive; reported ascending).
+    orientation, modes, jacobian
+        As for :func:`vesicle.bifurcation.neutral.neutral_curve`.
+    form : {"spec", "curvature"}
+        The Jacobian the curves are defined by (:data:`.steady_codim2.FORMS`): SPEC §9's
+        operator (the default: what ``vesicle critical`` and the tracer compute) or the Newton
+        matrix with the multipliers' curvature.
+    lam_range : (float, float)
+        The box in lambda the curves are kept in.
+    settings : codim2.Settings, optional
+        Default :data:`DEFAULT_SETTINGS`.
+    max_points : int
+        Most points of each continued curve.
+    progress : callable, optional
+        Given a summary dict of each step (curve points, searches, located points).
+
+    Returns
+    -------
+    NeutralCurve
+        ``method = "codim2"``, with ``bt_points`` and ``cusp_points``; each point with
+        ``located``, ``residual`` and ``other_unstable``.
+    """
+    if modes is None:
+        modes = default_modes(orientation)
+    if not isinstance(physics, Physics):
+        physics = Physics(v=float(physics))
+    chis = sorted({float(c) for c in chi})
+    if not chis or chis[0] <= 0:
+        raise ValueError(f"chi values must be positive, got {list(chi)}")
+    for c in chis:
+        physics.replace(chi=c)
+    lo, hi = map(float, lam_range)
+    if not 0 < lo < hi:
+        raise ValueError(f"lam_range must be (low, high) with 0 < low < high, got {lam_range}")
+    disc = discretisation if discretisation is not None else Discretisation()
+    t0 = time.perf_counter()
+    side = -1 if orientation == "vorticity" else 1
+    seed_chi = max(chis) if side < 0 else min(chis, key=lambda c: abs(math.log(c)))
+    eq = SteadyEquations(physics.replace(chi=seed_chi, lam=max(lo, 1.0)), disc, modes=modes,
+                         jacobian=jacobian, form=form)  # fmt: skip
+    margin = 0.02
+    bounds = [[math.log(chis[0]) - margin, math.log(chis[-1]) + margin], [lo, hi]]
+
+    def say(d: dict) -> None:
+        log.info("%s", d)
+        if progress is not None:
+            progress(d)
+
+    ctx = _Context(physics, disc, eq, modes, orientation, jacobian,
+                   settings or DEFAULT_SETTINGS, side, bounds, max_points, say,
+                   [math.log(c) for c in chis])  # fmt: skip
+    failed: list[dict] = []
+    seed = _seed(ctx, seed_chi)
+    if not seed.converged:
+        raise NewtonError(f"the critical point at chi = {seed_chi:g} did not converge "
+                          f"(residual {seed.residual:.2e})")  # fmt: skip
+    say({"seed": _point_summary(seed.kind, seed)})
+    _continue(ctx, seed, seed.kind)
+    tried: set[float] = {seed_chi}
+    edge = chis[0] if side > 0 else chis[-1]
+    for _ in range(4):
+        # a new seed where requested chi are not covered yet, else at the low-chi edge (high
+        # for the vorticity branch): the curves found so far may belong to another sheet
+        # than the branch from low lambda there (v = 0.95 between the BT point and the type
+        # change: the Hopf curve is the upper sheet's, the lower sheet folds first)
+        missing = [c for c in chis if _winner(ctx.curves, c, side) is None and c not in tried]
+        if missing:
+            c = missing[0] if side > 0 else missing[-1]
+        elif edge not in tried:
+            c = edge
+        else:
+            break
+        tried.add(c)
+        try:
+            point = _first_loss(ctx, c, _start_lambda(ctx, c))
+        except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+            failed.append({"chi": c, "error": f"no critical point: {err}"})
+            log.warning("neutral curve: no critical point at chi = %.4g: %s", c, err)
+            continue
+        if not point.converged:
+            failed.append({"chi": c, "error": f"the {point.kind} point did not converge "
+                                              f"(residual {point.residual:.2e})"})
+            continue
+        if any(k.kind == point.kind and abs(k.lam - point.p[1]) <= 1e-5 * max(1.0, k.lam)
+               for k in _candidates(ctx.curves, c)):  # fmt: skip
+            say({"chi": c, "first_loss": f"on the {point.kind} curve already traced"})
+            continue
+        say({"seed": _point_summary(point.kind, point)})
+        _continue(ctx, point, point.kind)
+    change, _ = _type_change(ctx, chis)
+    points = []
+    for c in chis:
+        t1 = time.perf_counter()
+        cand = _winner(ctx.curves, c, side)
+        if cand is None:
+            if not any(f["chi"] == c for f in failed):
+                failed.append({"chi": c, "error": "no fold or Hopf curve reaches this chi "
+                                                  "without another unstable eigenvalue"})
+            continue
+        lower = None
+        if cand.kind == "hopf":
+            folds = [k for k in _candidates(ctx.curves, c) if k.kind == "fold"
+                     and side * (cand.lam - k.lam) > 0]  # fmt: skip
+            lower = max(folds, key=lambda k: side * k.lam) if folds else None
+        point = _report(ctx, c, cand, t1, lower)
+        points.append(point)
+        say({"point": point.to_dict()})
+    return NeutralCurve(physics, disc, points, change, [], time.perf_counter() - t0, failed,
+                        orientation, modes, ctx.settings.ftol, 0, method="codim2",
+                        bt_points=_special_dicts(ctx, "bt"),
+                        cusp_points=_special_dicts(ctx, "cusp"), form=form)  # fmt: skip

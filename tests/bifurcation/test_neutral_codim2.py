@@ -1,0 +1,109 @@
+"""The neutral curve by two-parameter continuation (vesicle.bifurcation.neutral_codim2).
+
+Fast tests: the rule that picks the neutral point among the curves (the upper edge of the
+stable region: the largest lambda at which a state loses stability, among points with no other
+unstable eigenvalue) on hand-made curves with exact answers, and the JSON of the result.
+Slow: the vesicle at v = 0.95, N = 4 on 16x32, against the one-parameter tracer's bracket of
+the type change and the stability analysis at the BT point."""
+
+import math
+
+import numpy as np
+import pytest
+
+import vesicle as vs
+from vesicle.bifurcation import codim2
+from vesicle.bifurcation.neutral import NeutralPoint
+from vesicle.bifurcation.neutral_codim2 import _candidates, _Curve, _winner, neutral_curve_codim2
+
+
+def _pt(kind, chi, lam, other=False, converged=True):
+    return codim2.CurvePoint(kind=kind, x=np.zeros(3), p=np.array([math.log(chi), lam]),
+                             omega=0.3 if kind == "hopf" else 0.0, residual=1e-10,
+                             converged=converged, iterations=2, tests={},
+                             eigenvalues=np.zeros(0), other_unstable=other, v=np.zeros(3),
+                             w=np.zeros(3))  # fmt: skip
+
+
+def _curve(kind, points):
+    return _Curve(kind, codim2.Curve(kind, "minaug", tuple(points), (), "bounds",
+                                     codim2.Evaluations()))  # fmt: skip
+
+
+def test_the_neutral_point_is_the_upper_edge_of_the_stable_region():
+    """A lower-sheet fold curve rising 7.45 -> 7.55 over chi 0.1 -> 0.3 and an upper-sheet
+    Hopf curve rising 7.2 -> 7.8 over chi 0.2 -> 0.3 (both linear in log chi): below their
+    crossing the fold is the edge, above it the Hopf point; the crossing of the two straight
+    lines in log chi is where the winner changes."""
+    fold = _curve("fold", [_pt("fold", 0.1, 7.45), _pt("fold", 0.3, 7.55)])
+    hopf = _curve("hopf", [_pt("hopf", 0.2, 7.2), _pt("hopf", 0.3, 7.8)])
+    curves = [fold, hopf]
+    assert _winner(curves, 0.15, 1).kind == "fold"  # only the fold covers it
+    t = math.log
+    lam_f = lambda c: 7.45 + 0.1 * (t(c) - t(0.1)) / (t(0.3) - t(0.1))  # noqa: E731
+    lam_h = lambda c: 7.2 + 0.6 * (t(c) - t(0.2)) / (t(0.3) - t(0.2))  # noqa: E731
+    w = _winner(curves, 0.22, 1)
+    assert w.kind == "fold" and w.lam == pytest.approx(lam_f(0.22), rel=1e-14)
+    w = _winner(curves, 0.29, 1)
+    assert w.kind == "hopf" and w.lam == pytest.approx(lam_h(0.29), rel=1e-14)
+    assert _winner(curves, 0.05, 1) is None  # outside every curve
+    # the vorticity branch is stable above its curve: the lowest loss counts
+    assert _winner(curves, 0.22, -1).kind == "hopf"
+
+
+def test_points_with_another_unstable_eigenvalue_or_not_converged_are_not_candidates():
+    """A curve segment counts only between two converged points with no other unstable
+    eigenvalue (there the curve is not a stability boundary)."""
+    off = _curve("fold", [_pt("fold", 0.1, 9.0, other=True), _pt("fold", 0.3, 9.5)])
+    failed = _curve("hopf", [_pt("hopf", 0.1, 9.9), _pt("hopf", 0.3, 9.9, converged=False)])
+    good = _curve("hopf", [_pt("hopf", 0.1, 8.0), _pt("hopf", 0.3, 8.5)])
+    kinds = [c.lam for c in _candidates([off, failed, good], 0.2)]
+    assert len(kinds) == 1 and 8.0 < kinds[0] < 8.5
+
+
+def test_a_codim2_point_keeps_its_residual_and_spectrum_check_in_the_json():
+    p = NeutralPoint(0.3, 7.8, "hopf", 0.09, -0.1, 0.19, True, 4.0, None, None, -0.003,
+                     7.5, True, residual=4e-10, other_unstable=False)  # fmt: skip
+    d = p.to_dict()
+    assert d["residual"] == 4e-10 and d["other_unstable"] is False and d["located"] is True
+    back = NeutralPoint.from_dict(d)
+    assert back.residual == 4e-10 and back.other_unstable is False
+    assert back.lower_fold == 7.5 and back.lower_fold_located
+    # a tracer point has neither key, and reads back without them
+    old = {k: v for k, v in d.items() if k not in ("residual", "other_unstable")}
+    assert NeutralPoint.from_dict(old).residual is None
+
+
+def test_bad_arguments_are_refused_before_any_work():
+    with pytest.raises(ValueError, match="chi"):
+        neutral_curve_codim2(vs.Physics(v=0.95), [], vs.Discretisation(grid=8, degree=2))
+    with pytest.raises(ValueError, match="lam_range"):
+        neutral_curve_codim2(vs.Physics(v=0.95), [1.0], vs.Discretisation(grid=8, degree=2),
+                             lam_range=(5.0, 1.0))  # fmt: skip
+
+
+@pytest.mark.slow
+def test_the_curve_near_the_type_change_is_located_at_v095_n4():
+    """v = 0.95, N = 4 on 16x32, chi = 0.23 and 0.28 (about 5 min): the Hopf curve from 0.28
+    down to its BT point, the lower sheet's fold found from low lambda at 0.23 and continued
+    up, the type change where they cross.  Independent references: the one-parameter tracer
+    bracketed the change in [0.2544, 0.2577] with lambda_c about 7.520
+    (docs/notes/continuation-measurements.md) and SPEC 14 puts it near 0.25; the BT point is a
+    double zero of the pencil's finite eigenvalues, computed apart from the BT system's Newton
+    (the pencil is the stability analysis of vesicle.steady.stability: test_steady_codim2; a
+    double zero solved to 1e-8 splits by about its square root, 1e-4).  Measured (2026-12-06,
+    the whole curve 0.1-10): type change 0.256642, lambda_c 7.51972; BT 0.21855, 7.19111."""
+    disc = vs.Discretisation(grid=16, degree=4)
+    curve = neutral_curve_codim2(vs.Physics(v=0.95), [0.23, 0.28], disc)
+    assert not curve.failed
+    low, high = curve.points
+    assert low.located and high.located and not low.other_unstable and not high.other_unstable
+    assert low.bifurcation == "saddle-node" and high.bifurcation == "hopf"
+    assert low.residual < 1e-8 and high.residual < 1e-8
+    t = curve.type_change
+    assert t["located"] and t["below"] == "saddle-node" and t["above"] == "hopf"
+    assert 0.2544 <= t["chi"] <= 0.2577
+    assert t["lambda_c"] == pytest.approx(7.520, abs=5e-3)
+    bt = [q for q in curve.bt_points if q["located"]]
+    assert bt and all(abs(complex(*z)) < 1e-3 for z in bt[0]["smallest_eigenvalues"])
+    assert t["chi"] == pytest.approx(0.256642, abs=2e-5)
