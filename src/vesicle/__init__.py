@@ -4,6 +4,7 @@ from vesicle._version import __version__
 from vesicle.bifurcation.branch import Branch, BranchPoint, SpecialPoint, branch
 from vesicle.bifurcation.critical import CriticalResult, critical_lambda
 from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint, neutral_curve
+from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
 from vesicle.caches import cache_info, clear_caches
 from vesicle.geometry.surface import Shape, ShapeError
 from vesicle.io.files import open_run
@@ -50,6 +51,7 @@ __all__ = [
     "double_layer",
     "membrane_force",
     "neutral_curve",
+    "neutral_curve_codim2",
     "open_run",
     "single_layer",
     "solve_flow",

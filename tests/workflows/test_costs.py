@@ -47,6 +47,8 @@ QUOTES = [
     ("README.md", "neutral_quick", r"about ([\d.]+ min) for χ = 0\.2, 1, 3"),
     ("README.md", "neutral_13", r"and (\S+ min) for 13 χ"),
     ("README.md", "neutral_n8", r"other core busy\), (1\.6.*? at the folds)"),
+    ("README.md", "neutral_codim2_13",
+     r"at N = 4 on 16×32 about (\d+ min) for 13 χ from 0\.1 to 10 at"),
     ("docs/paper.md", "paper_quick", r"fewer points \(about (\d+ min)\)"),
     ("docs/notes/steady-measurements.md", "tt_stability",
      r"`vesicle tt --stability` there takes (\S+ s)"),
@@ -63,6 +65,8 @@ QUOTES = [
     ("docs/howto/continuation.md", "neutral_quick", r"about ([\d.]+ min) for χ = 0\.2, 1, 3"),
     ("docs/howto/continuation.md", "neutral_13", r"and (\S+ min) for 13 χ"),
     ("docs/howto/continuation.md", "neutral_n8", r"other core busy\), (1\.6.*? at the folds)"),
+    ("docs/howto/continuation.md", "neutral_codim2_13",
+     r"at N = 4 on 16×32 about (\d+ min) for 13 χ from 0\.1 to 10 at"),
     ("docs/howto/report.md", "paper_quick", r"The quick report: about (\d+ min) on 2 cores"),
     ("docs/howto/report.md", "paper_quick:measured", r"\((\d+ min \d+ s) measured on 2026-12-03"),
 ]
@@ -119,6 +123,7 @@ def test_vesicle_help_shows_the_table():
         "run_ros34pw2",
         "run_default",
         "neutral_quick",
+        "neutral_codim2_13",
         "paper_quick",
     ):
         assert COSTS[key].figure in text, key

@@ -68,7 +68,7 @@ class NeutralPoint:
     lambda_c: float
     bifurcation: str  # "hopf" or "saddle-node"
     omega_R: float
-    psi: float  # of the stable state nearest below lambda_c
+    psi: float  # of the stable state nearest below lambda_c (codim2: of the critical state)
     D: float
     located: bool
     seconds: float
@@ -99,12 +99,14 @@ class NeutralPoint:
         return {"chi": self.chi, "lambda_c": self.lambda_c, "bifurcation": self.bifurcation,
                 "omega_R": self.omega_R, "psi": self.psi, "D": self.D,
                 "located": self.located, "seconds": self.seconds,
-                "curvature_shift": self.curvature_shift,
+                "curvature_shift": (self.curvature_shift if math.isfinite(self.curvature_shift)
+                                    else None),
                 **({"bracket": list(self.bracket)} if self.bracket else {}),
                 **({} if self.lower_fold is None else
                    {"lower_fold": self.lower_fold,
                     "lower_fold_located": self.lower_fold_located}),
-                **({} if self.residual is None else {"residual": self.residual}),
+                **({} if self.residual is None else
+                   {"residual": self.residual if math.isfinite(self.residual) else None}),
                 **({} if self.other_unstable is None else
                    {"other_unstable": self.other_unstable})}  # fmt: skip
 
@@ -116,9 +118,11 @@ class NeutralPoint:
                    float(d["omega_R"]), float(d["psi"]), float(d["D"]),
                    bool(d.get("located", False)), float(d.get("seconds", 0.0)),
                    tuple(map(float, bracket)) if bracket else None, start,
-                   float(d.get("curvature_shift", 0.0)),
+                   float(d.get("curvature_shift") if d.get("curvature_shift") is not None
+                         else (math.nan if "curvature_shift" in d else 0.0)),
                    None if d.get("lower_fold") is None else float(d["lower_fold"]),
                    bool(d.get("lower_fold_located", False)),
+                   math.inf if "residual" in d and d["residual"] is None else
                    None if d.get("residual") is None else float(d["residual"]),
                    None if d.get("other_unstable") is None
                    else bool(d["other_unstable"]))  # fmt: skip

@@ -89,6 +89,12 @@ DEFAULT_SETTINGS = codim2.Settings(ftol=1e-8, step_tol=1e-6, forward_step=1e-5, 
 #: Relative step in lambda of the search for the first loss of stability (:func:`_first_loss`).
 LOSS_STEP = 1.08
 
+#: A step of the first-loss search whose shape moves this many times faster (per unit of
+#: lambda) than the last step's is taken for a jump to another sheet and halved.  Approaching
+#: a fold the rate grows like (lam_f - lam)^(-1/2): by under 2 between 8 % steps until the
+#: last one.
+JUMP = 4.0
+
 #: A curve is given up after this many points in a row with another unstable eigenvalue
 #: (it is not the stability boundary there; the points found are kept and reported).
 OFF_BOUNDARY = 3
@@ -116,6 +122,20 @@ class _Curve:
         if self.curve.end == "bt" and bt:
             pts.append(bt[-1].point)
         return pts
+
+    def before_turn(self) -> list[codim2.CurvePoint]:
+        """Its points up to where its chi turns back (a fold curve past its cusp runs on the
+        S's other fold): the starts of the solves at fixed chi."""
+        pts = self.points()
+        if self.kind != "fold" or len(pts) < 2:
+            return pts
+        way = 1.0 if pts[1].p[0] >= pts[0].p[0] else -1.0
+        out = [pts[0]]
+        for q in pts[1:]:
+            if way * (q.p[0] - out[-1].p[0]) < 0:
+                break
+            out.append(q)
+        return out
 
     def segments(self):
         """Consecutive pairs of converged points with no other unstable eigenvalue."""
@@ -174,6 +194,7 @@ class _Context:
     landing: list[float] = field(default_factory=list)  # log chi of the requested points
     curves: list[_Curve] = field(default_factory=list)
     special: list[codim2.SpecialPoint] = field(default_factory=list)
+    visited_bt: set = field(default_factory=set)
 
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
@@ -220,6 +241,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
         growth, freq = _leading(state, ctx.modes)
     ratio = LOSS_STEP**side
     last: tuple[float, float] | None = None  # the previous state's (lam, growth)
+    last_rate: float | None = None  # |da / dlam| of the last step
     while True:
         fold = _fold_ahead(ctx, chi, state, growth, freq, last, ratio)
         if fold is not None:
@@ -233,13 +255,21 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
             try:
                 nxt = steady_tank_treading(ctx.at(chi, lam), ctx.disc, initial=state,
                                            jacobian=ctx.jacobian)  # fmt: skip
+                rate = float(np.linalg.norm(nxt.a - state.a)) / abs(lam - state.lam)
+                if last_rate is not None and rate > JUMP * last_rate:
+                    # the shape moved far more than the last step's rate says: Newton went
+                    # over a fold onto another sheet (an S narrower than the step)
+                    raise NewtonError(f"jump at lam = {lam:.6g} (shape rate {rate:.3g} "
+                                      f"against {last_rate:.3g})")  # fmt: skip
             except _FAILURES:
+                nxt = None
                 halvings += 1
                 if halvings > 4:  # a fold between state.lam and lam
                     ctx.say({"chi": chi, "first_loss": "fold beyond", "lam": state.lam})
                     x, p = ctx.eq.state(state)
                     return _locate(ctx, "fold", x, p)
                 lam = state.lam * ratio ** (0.5**halvings)
+        last_rate = rate
         g2, f2 = _leading(nxt, ctx.modes)
         ctx.say({"chi": chi, "lam": nxt.lam, "growth": g2})
         if g2 >= 0:
@@ -321,6 +351,8 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
     trace = codim2.hopf_curve if kind == "hopf" else codim2.fold_curve
     from_bt = isinstance(start, codim2.SpecialPoint)
     start_point = start.point if from_bt else start
+    if from_bt:
+        ctx.visited_bt.add(tuple(np.round(start.point.p, 6)))
     for d in directions[:1] if from_bt and kind == "hopf" else directions:
         ctx.say({"curve": kind, "direction": "up" if d[0] > 0 else "down"})
 
@@ -350,11 +382,24 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
         log.info("%s curve: %d points, end %s", kind, len(curve.points), curve.end)
         for sp in curve.special:
             ctx.special.append(sp)
+            key = tuple(np.round(sp.point.p, 6))
             if sp.kind == "bt" and sp.located and not sp.point.other_unstable and \
-                    not (from_bt and sp is start):  # fmt: skip
+                    key not in ctx.visited_bt:  # fmt: skip
+                ctx.visited_bt.add(key)  # each BT point switched at once (no cycles)
                 other = "fold" if kind == "hopf" else "hopf"
                 ctx.say({"switch": f"{kind} -> {other} at BT", "chi": math.exp(sp.point.p[0])})
                 _continue(ctx, sp, other, directions=(d,))
+
+
+def _guarded_continue(ctx: _Context, start: codim2.CurvePoint, failed: list[dict]) -> None:
+    """:func:`_continue`, with a failure recorded (the curves found so far are kept)."""
+    try:
+        _continue(ctx, start, start.kind)
+    except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+        chi = math.exp(start.p[0])
+        log.warning("the %s curve from chi = %.4g stopped: %s", start.kind, chi, err)
+        failed.append({"chi": None, "error": f"the {start.kind} curve from chi = {chi:.6g} "
+                                             f"stopped: {err}"})  # fmt: skip
 
 
 def _point_summary(kind: str, q: codim2.CurvePoint) -> dict:
@@ -368,10 +413,14 @@ def _state_numbers(ctx: _Context, q: codim2.CurvePoint) -> tuple[float, float, f
     the pencil with the multipliers' curvature minus SPEC §9's, at the critical eigenvalue)."""
     P = ctx.eq.problem_at(q.p)
     a, mu = q.x[:-2], q.x[-2:]
-    d = diagnose(P.shape(a))
+    try:
+        d = diagnose(P.shape(a))
+    except ShapeError as err:
+        log.warning("chi = %.4g: no shape diagnostics (%s)", math.exp(q.p[0]), err)
+        return math.nan, math.nan, math.nan
     shift = 0.0
     try:
-        J = ctx.eq.jacobian(q.x, q.p)
+        J = ctx.eq.jacobian(q.x, q.p).copy()  # the problem keeps the array it returns
         H = P.constraint_hessians(a)
         n = a.size
         Jc = J.copy()
@@ -384,7 +433,7 @@ def _state_numbers(ctx: _Context, q: codim2.CurvePoint) -> tuple[float, float, f
         target = 1j * q.omega
         shift = float(s_curv[np.argmin(np.abs(s_curv - target))].real
                       - s_spec[np.argmin(np.abs(s_spec - target))].real)  # fmt: skip
-    except (np.linalg.LinAlgError, ValueError) as err:  # reported, not hidden
+    except (np.linalg.LinAlgError, ValueError, ShapeError, SolverError) as err:  # reported
         log.warning("curvature shift at chi = %.4g not computed: %s", math.exp(q.p[0]), err)
         shift = math.nan
     return float(d.psi), float(d.D), shift
@@ -396,7 +445,7 @@ def _report(ctx: _Context, chi: float, cand: _Candidate, t0: float,
     q = cand.near
     p = np.array([math.log(chi), cand.lam])
     try:
-        if q.converged and q.p[0] == p[0]:  # the curve landed on this chi: solved there
+        if q.converged and abs(q.p[0] - p[0]) <= 1e-12:  # the curve landed on this chi
             r = q
         else:
             r = _locate(ctx, cand.kind, q.x, p, near=q)
@@ -413,10 +462,16 @@ def _report(ctx: _Context, chi: float, cand: _Candidate, t0: float,
         numbers = _state_numbers(ctx, r)
     lower_fold, lower_located = None, False
     if lower is not None:
-        f = lower.near if lower.near.converged and lower.near.p[0] == math.log(chi) else \
-            _locate(ctx, "fold", lower.near.x, np.array([math.log(chi), lower.lam]),
-                    near=lower.near)  # fmt: skip
-        lower_fold, lower_located = (float(f.p[1]), True) if f.converged else (lower.lam, False)
+        f = None
+        try:
+            f = lower.near if lower.near.converged and \
+                abs(lower.near.p[0] - math.log(chi)) <= 1e-12 else \
+                _locate(ctx, "fold", lower.near.x, np.array([math.log(chi), lower.lam]),
+                        near=lower.near)  # fmt: skip
+        except (*_FAILURES, np.linalg.LinAlgError, ValueError) as err:
+            log.warning("chi = %.4g: the lower fold was not solved for (%s)", chi, err)
+        lower_fold, lower_located = ((float(f.p[1]), True) if f is not None and f.converged
+                                     else (lower.lam, False))  # fmt: skip
     psi, D, shift = numbers
     kind = "hopf" if cand.kind == "hopf" else "saddle-node"
     return NeutralPoint(float(chi), lam, kind, omega if kind == "hopf" else 0.0, psi, D, located,
@@ -431,9 +486,11 @@ def _extent(curve: _Curve) -> tuple[float, float]:
 
 
 def _nearest(curve: _Curve, t: float) -> codim2.CurvePoint:
-    """Its candidate point (of its own kind: not a BT end) nearest ``log chi = t``."""
-    return min((q for seg in curve.segments() for q in seg if q.kind == curve.kind),
-               key=lambda q: abs(q.p[0] - t))  # fmt: skip
+    """Its converged point of its own kind (not a BT end), before its chi turns back and with
+    no other unstable eigenvalue, nearest ``log chi = t``."""
+    pts = [q for q in curve.before_turn() if q.kind == curve.kind and q.converged
+           and not q.other_unstable]  # fmt: skip
+    return min(pts, key=lambda q: abs(q.p[0] - t))
 
 
 def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dict | None]:
@@ -491,6 +548,12 @@ def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dic
     return None, None
 
 
+def _finite(x: float) -> float | None:
+    """A number for the JSON: ``None`` where it is not finite (JSON has no NaN or inf)."""
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
 def _special_dicts(ctx: _Context, kind: str) -> list[dict]:
     out = []
     for sp in ctx.special:
@@ -500,7 +563,7 @@ def _special_dicts(ctx: _Context, kind: str) -> list[dict]:
         eig = np.asarray(q.eigenvalues)
         two = sorted(eig, key=abs)[:2] if eig.size else []
         out.append({"chi": math.exp(q.p[0]), "lambda": float(q.p[1]), "located": bool(sp.located),
-                    "residual": float(sp.residual), "test": float(sp.test),
+                    "residual": _finite(sp.residual), "test": _finite(sp.test),
                     "other_unstable": bool(q.other_unstable),
                     "smallest_eigenvalues": [[float(z.real), float(z.imag)] for z in two]})
     return out
@@ -518,6 +581,7 @@ def neutral_curve_codim2(
     lam_range: tuple[float, float] = (0.5, 100.0),
     settings: codim2.Settings | None = None,
     max_points: int = 80,
+    locate_type_change: bool = True,
     progress: Callable[[dict], None] | None = None,
 ) -> NeutralCurve:
     """The neutral curve through the requested ``chi`` by two-parameter continuation (see the
@@ -541,6 +605,8 @@ def neutral_curve_codim2(
         Default :data:`DEFAULT_SETTINGS`.
     max_points : int
         Most points of each continued curve.
+    locate_type_change : bool
+        Solve for the change of type (False: ``type_change`` is None).
     progress : callable, optional
         Given a summary dict of each step (curve points, searches, located points).
 
@@ -585,7 +651,7 @@ def neutral_curve_codim2(
         raise NewtonError(f"the critical point at chi = {seed_chi:g} did not converge "
                           f"(residual {seed.residual:.2e})")  # fmt: skip
     say({"seed": _point_summary(seed.kind, seed)})
-    _continue(ctx, seed, seed.kind)
+    _guarded_continue(ctx, seed, failed)
     tried: set[float] = {seed_chi}
     edge = chis[0] if side > 0 else chis[-1]
     for _ in range(4):
@@ -616,8 +682,8 @@ def neutral_curve_codim2(
             say({"chi": c, "first_loss": f"on the {point.kind} curve already traced"})
             continue
         say({"seed": _point_summary(point.kind, point)})
-        _continue(ctx, point, point.kind)
-    change, _ = _type_change(ctx, chis)
+        _guarded_continue(ctx, point, failed)
+    change = _type_change(ctx, chis)[0] if locate_type_change else None
     points = []
     for c in chis:
         t1 = time.perf_counter()
@@ -635,6 +701,10 @@ def neutral_curve_codim2(
         point = _report(ctx, c, cand, t1, lower)
         points.append(point)
         say({"point": point.to_dict()})
+    # a chi reported in the end is not a failure (an edge seed that failed where a curve
+    # already reached); the failures of the curves themselves stay (chi = None)
+    reported = {p.chi for p in points}
+    failed = [f for f in failed if f["chi"] not in reported]
     return NeutralCurve(physics, disc, points, change, [], time.perf_counter() - t0, failed,
                         orientation, modes, ctx.settings.ftol, 0, method="codim2",
                         bt_points=_special_dicts(ctx, "bt"),

@@ -278,6 +278,7 @@ def locate_type_change(
     progress: Callable[[dict], None] | None = None,
     start: Callable[[str, float], codim2.CurvePoint] | None = None,
     probes: Sequence[float] = (),
+    gap_tol: float = 1e-4,
 ) -> TypeChange:
     """The ``chi`` in ``chi_bracket`` where the fold point (held ``chi``, free ``lambda``) and
     the Hopf point of the other sheet have the same ``lambda``: Brent's method on
@@ -290,7 +291,8 @@ def locate_type_change(
     ``probes``: values of chi inside the bracket where the gap is evaluated in turn, from the
     high end down, before Brent's method, which then runs between the first two of opposite
     sign (the high end first: at v = 0.95 the low end of the overlap is the BT point, where the
-    Hopf point is hardest to solve)."""
+    Hopf point is hardest to solve).  ``located`` also needs the two lambdas at the found chi
+    within ``gap_tol`` (measured: 3e-6 at xtol 1e-6; a jump between sheets leaves about 0.1)."""
     last = {"fold": fold, "hopf": hopf}
 
     def at(kind: str, chi: float) -> codim2.CurvePoint:
@@ -330,6 +332,10 @@ def locate_type_change(
     k = len(gaps) - 1
     chi = brentq(gap, nodes[k], nodes[k - 1], xtol=xtol)
     f, h = at("fold", chi), at("hopf", chi)
+    gap_c = float(h.p[1] - f.p[1])
+    # located: both points converged and they meet (a jump of one of them to another sheet
+    # between Brent's evaluations would leave a change of sign at a discontinuity instead)
+    located = bool(f.converged and h.converged and abs(gap_c) <= gap_tol)
     return TypeChange(chi=float(chi), lambda_c=float(0.5 * (f.p[1] + h.p[1])),
-                      omega_R=float(h.omega), fold=f, hopf=h, gap=float(h.p[1] - f.p[1]),
-                      located=bool(f.converged and h.converged))  # fmt: skip
+                      omega_R=float(h.omega), fold=f, hopf=h, gap=gap_c,
+                      located=located)  # fmt: skip

@@ -471,7 +471,7 @@ def _neutral_kept(out: str | None, states: str | None, method: str = "trace") ->
 
 
 def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json, config_path,
-                    options) -> None:  # fmt: skip
+                    options, type_change) -> None:  # fmt: skip
     """``vesicle neutral --continuation codim2``: the curve, then its points, type change, BT and
     cusp points printed (or the JSON)."""
     try:
@@ -479,18 +479,19 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
         physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
         curve = neutral_curve_codim2(physics, chis, disc, orientation=orientation, modes=modes,
                                      jacobian=jacobian, form=form,
+                                     locate_type_change=type_change,
                                      progress=_echo_progress)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
     result = {**curve.to_dict(), "command": command_line(ctx)}
     if curve.failed:  # what was found is written; the command still fails
         _emit_json(result, out, as_json)
-        fail("no point at: " + "; ".join(f"chi = {f['chi']:.4g} ({f['error']})"
-                                         for f in curve.failed))  # fmt: skip
+        fail("; ".join(f"no point at chi = {f['chi']:.4g} ({f['error']})" if f["chi"] is not None
+                       else f["error"] for f in curve.failed))  # fmt: skip
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
-        note = "" if p["located"] else f" (estimate: not converged, residual {p['residual']:.2g})"
+        note = "" if p["located"] else " (estimate: not solved to tolerance)"
         if p.get("other_unstable"):
             note += " (another eigenvalue unstable: not a stability boundary)"
         if p.get("lower_fold") is not None:
@@ -505,8 +506,9 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
     for key, name in (("bt_points", "Bogdanov-Takens"), ("cusp_points", "cusp")):
         for q in result[key]:
             how = "located" if q["located"] else "not located"
+            res = "" if q["residual"] is None else f", residual {q['residual']:.2g}"
             click.echo(f"{name} point at chi = {q['chi']:.6g}, lambda = {q['lambda']:.6g} "
-                       f"({how}, residual {q['residual']:.2g})")  # fmt: skip
+                       f"({how}{res})")  # fmt: skip
 
 
 def _chi_values(text: str, points: int | None) -> list[float]:
@@ -549,7 +551,7 @@ def _chi_values(text: str, points: int | None) -> list[float]:
     "systems, with the Bogdanov-Takens and cusp points and the change of type located, then "
     "each chi solved on its curve (every point 'located' only where its system converged). "
     "trace: the older one-parameter tracer (a branch in lambda at each chi); --xtol, "
-    "--type-tol, --no-type-change, --states and --resume apply to it only.",
+    "--type-tol, --states, --resume, --workers and --scheduler apply to it only.",
 )
 @click.option(
     "--form",
@@ -606,7 +608,7 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, conti
         if out is not None:
             check_output(out, overwrite=overwrite, resume=False)
         _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
-                        config_path, options)  # fmt: skip
+                        config_path, options, not no_type_change)  # fmt: skip
         return
     if resume and out is None:
         fail("--resume continues the curve of an --out file: give --out")

@@ -137,7 +137,7 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         source="docs/paper.md",
     ),
     "neutral_quick": Cost(
-        command="vesicle neutral --v 0.95 --chi 0.2,1,3 --degree 4 --grid 16",
+        command="vesicle neutral --continuation trace --v 0.95 --chi 0.2,1,3 --degree 4 --grid 16",
         figure="2.5 min",
         resolution="N = 4 on 16x32",
         measured="about 2.5 min",
@@ -148,7 +148,7 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
     # 0.95 13 min (2026-12-02); v = 0.90 17 min when retraced on 2026-12-03 (its 33 min of
     # 2026-12-02 lost).
     "neutral_13": Cost(
-        command="vesicle neutral --chi 0.1:10 --points 13 (v = 0.98 to 0.90)",
+        command="vesicle neutral --continuation trace --chi 0.1:10 --points 13 (v = 0.98 to 0.90)",
         figure="5–17 min",
         resolution="N = 4 on 16x32",
         measured="5.2 min (v = 0.98), 13 min (v = 0.95), 17 min (v = 0.90)",
@@ -158,12 +158,22 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
     # docs/notes/continuation-measurements.md, N = 8 retraced 2026-12-03. Lost: the README's "2–7
     # min per chi" (commit bd29ad0, 2026-12-02).
     "neutral_n8": Cost(
-        command="vesicle neutral --degree 8 --grid 32, per chi",
+        command="vesicle neutral --continuation trace --degree 8 --grid 32, per chi",
         figure="1.6–3 min a point at χ ≥ 0.36, 13–31 min at the folds",
         resolution="N = 8 on 32x64, v = 0.95",
         measured="1.6–3 min a point at χ ≥ 0.36, 5 min at 0.278, 13–31 min at the folds",
         when="2026-12-03, the other core busy",
         source="docs/notes/continuation-measurements.md",
+    ),
+    # docs/notes/codim2-measurements.md *The neutral curve by `vesicle neutral`* (2026-12-06,
+    # the final run of the session's code, alone on the machine, /usr/bin/time).
+    "neutral_codim2_13": Cost(
+        command="vesicle neutral --v 0.95 --chi 0.1:10 --points 13 --degree 4 --grid 16",
+        figure="6 min",
+        resolution="N = 4 on 16x32, v = 0.95 (BT point, type change and 13 located points)",
+        measured="364 s",
+        when="2026-12-06, alone",
+        source="docs/notes/codim2-measurements.md",
     ),
 })  # fmt: skip
 
@@ -229,7 +239,9 @@ def command_help(summary: str) -> str:
         f"(--no-coarse {c['critical_no_coarse'].figure}); `run` near lambda = 8: "
         f"{c['run_ros2'].figure} per unit of time (ROS2, rtol 3e-5), "
         f"{c['run_ros34pw2'].figure} with --integrator ros34pw2 --rtol 1e-1; `run` with its "
-        f"defaults {c['run_default'].figure}. `neutral --chi 0.2,1,3` at N = 4 on 16 x 32: "
-        f"about {c['neutral_quick'].figure}. `paper --quick`: about {c['paper_quick'].figure}. "
+        f"defaults {c['run_default'].figure}. `neutral --v 0.95 --chi 0.1:10 --points 13` at "
+        f"N = 4 on 16 x 32: about {c['neutral_codim2_13'].figure} (the one-parameter tracer, "
+        f"--continuation trace, about {c['neutral_quick'].figure} for --chi 0.2,1,3). "
+        f"`paper --quick`: about {c['paper_quick'].figure}. "
         f"Dates and sources: vesicle.workflows.costs."
     )
