@@ -442,6 +442,23 @@ def _predict(points: list[NeutralPoint], chi: float) -> float:
     return b.lambda_c * (chi / b.chi) ** slope
 
 
+def curve_inputs(physics: Physics | float, chi: Sequence[float], modes: str | None,
+                 orientation: str) -> tuple[Physics, list[float], str]:  # fmt: skip
+    """A neutral curve's ``physics`` (or ``v``), ``chi`` values and ``modes`` checked before any
+    work: the physics of every chi valid, the chi positive (returned ascending, without
+    repeats), the modes defaulting by orientation (:func:`default_modes`)."""
+    if modes is None:
+        modes = default_modes(orientation)
+    if not isinstance(physics, Physics):
+        physics = Physics(v=float(physics))
+    chis = sorted({float(c) for c in chi})
+    if not chis or chis[0] <= 0:
+        raise ValueError(f"chi values must be positive, got {list(chi)}")
+    for c in chis:
+        physics.replace(chi=c)
+    return physics, chis, modes
+
+
 def neutral_curve(
     physics: Physics | float,
     chi: Sequence[float],
@@ -498,15 +515,7 @@ def neutral_curve(
     for name, value in (("xtol", xtol), ("type_tol", type_tol)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be a positive number, got {value}")
-    if modes is None:
-        modes = default_modes(orientation)
-    if not isinstance(physics, Physics):
-        physics = Physics(v=float(physics))
-    chis = sorted({float(c) for c in chi})
-    if not chis or chis[0] <= 0:
-        raise ValueError(f"chi values must be positive, got {list(chi)}")
-    for c in chis:
-        physics.replace(chi=c)
+    physics, chis, modes = curve_inputs(physics, chi, modes, orientation)
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
     side = -1 if orientation == "vorticity" else 1

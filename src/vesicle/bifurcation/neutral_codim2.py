@@ -55,7 +55,7 @@ import numpy as np
 from vesicle.bifurcation import codim2
 from vesicle.bifurcation.branch import reach
 from vesicle.bifurcation.critical import critical_lambda, vorticity_start_lambda
-from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint
+from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint, curve_inputs
 from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_change
 from vesicle.geometry.diagnostics import diagnose
 from vesicle.geometry.surface import ShapeError
@@ -63,7 +63,7 @@ from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, steady_tank_treading
-from vesicle.steady.stability import default_modes, stability
+from vesicle.steady.stability import stability
 
 __all__ = ["DEFAULT_SETTINGS", "neutral_curve_codim2"]
 
@@ -616,15 +616,7 @@ def neutral_curve_codim2(
         ``method = "codim2"``, with ``bt_points`` and ``cusp_points``; each point with
         ``located``, ``residual`` and ``other_unstable``.
     """
-    if modes is None:
-        modes = default_modes(orientation)
-    if not isinstance(physics, Physics):
-        physics = Physics(v=float(physics))
-    chis = sorted({float(c) for c in chi})
-    if not chis or chis[0] <= 0:
-        raise ValueError(f"chi values must be positive, got {list(chi)}")
-    for c in chis:
-        physics.replace(chi=c)
+    physics, chis, modes = curve_inputs(physics, chi, modes, orientation)
     lo, hi = map(float, lam_range)
     if not 0 < lo < hi:
         raise ValueError(f"lam_range must be (low, high) with 0 < low < high, got {lam_range}")
