@@ -63,6 +63,29 @@ def test_the_jacobian_is_the_derivative_of_the_residual():
     assert coarse[1] > 100 * fine[1]
 
 
+@pytest.mark.parametrize("form", ["curvature", "spec"])
+def test_newtons_action_derivative_is_the_difference_of_whole_jacobians(state, form):
+    """The Jacobian-vector products of the linearisation at the moved point (the fast path
+    of Newton's matrices) against central differences of whole Jacobians (the core's
+    reference), along a direction in (x, p) and along lambda alone: measured 8e-4 and 1e-4
+    relative at N = 4 on 16x32 (a forward difference of step 1e-5 against a central one of
+    6e-6); here within 1e-2, which is what Newton's rate needs."""
+    eq = SteadyEquations(state.physics, TINY, form=form)
+    x, p = eq.state(state)
+    rng = np.random.default_rng(7)
+    q = rng.standard_normal((x.size, 2))
+    for d in (np.concatenate([0.1 * rng.standard_normal(x.size), [0.3, -0.5]]),
+              np.concatenate([np.zeros(x.size), [0.0, 1.0]])):  # fmt: skip
+        reference = codim2.fd_jacobian_action_derivative(eq.jacobian, x, p, q, d)
+        J = eq.jacobian(x, p)
+        fast = eq.newton_action_derivative(x, p, q, d, J)
+        assert np.abs(fast - reference).max() < 1e-2 * np.abs(reference).max()
+    reference_path = SteadyEquations(state.physics, TINY, form=form, actions="jacobians")
+    assert not reference_path.newton_actions
+    with pytest.raises(ValueError, match="actions"):
+        SteadyEquations(state.physics, TINY, actions="other")
+
+
 def test_the_parameters_are_log_chi_and_lambda(state):
     eq = SteadyEquations(state.physics, TINY)
     _, p = eq.state(state)

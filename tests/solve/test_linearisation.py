@@ -13,8 +13,9 @@ from vesicle.solve.factorised import (
     _block_apply,
     block_apply_reference,
     preconditioned_solve,
+    preconditioned_system_solve,
 )
-from vesicle.solve.linearisation import linearised_jacobian
+from vesicle.solve.linearisation import linearised_action, linearised_jacobian
 from vesicle.solve.solver import VelocityTensionSolver
 from vesicle.sphere.bases import basis
 from vesicle.steady.newton import initial_guess
@@ -112,6 +113,37 @@ def test_preconditioned_solve_matches_gmres(shape, lam, other_lam, size):
     assert np.abs(r.sigma - reference.sigma).max() < 1e-9 * np.abs(reference.sigma).max()
     np.testing.assert_allclose(r.stress.S, reference.stress.S, rtol=1e-8, atol=1e-8)
     assert r.constraint_residual < 1e-9
+
+
+def test_linearised_action_is_the_linearised_jacobian_times_the_vectors(jacobians):
+    """``M V`` from the linearisation along three vectors only, its solves by GMRES
+    preconditioned with a nearby shape's factorised system (another lam too), against the
+    whole linearised Jacobian of the same shape (a factorisation: the independent solve) times
+    ``V``: equal to the GMRES tolerance (1e-11), not to a difference step."""
+    lin, _, P, a = jacobians
+    p = P.physics
+    solver = VelocityTensionSolver(P.shape(a), p, discretisation=P.discretisation)
+    near = P.shape(a + 1e-3 * np.random.default_rng(4).standard_normal(a.size))
+    system = FactorisedSystem(VelocityTensionSolver(near, p.replace(lam=5.2)))
+    V = np.random.default_rng(5).standard_normal((a.size, 3))
+    MV = linearised_action(solver, P.basis, V, system, rtol=1e-12)
+    assert np.abs(MV - lin @ V).max() < 1e-8 * np.abs(lin @ V).max()
+    with pytest.raises(ValueError, match="vectors"):
+        linearised_action(solver, P.basis, V[:-1], system)
+
+
+def test_the_preconditioned_system_solve_reports_a_missed_tolerance(shape):
+    """A preconditioner from a far shape and one GMRES iteration: an error, not a result."""
+    physics = vs.Physics(v=0.9, lam=5.0, chi=3.0)
+    far = Shape.spheroid(0.6, 12, 4)
+    system = FactorisedSystem(VelocityTensionSolver(far, physics))
+    solver = VelocityTensionSolver(shape, physics)
+    from vesicle.solve.factorised import CoupledBlocks
+    from vesicle.solve.solver import SolverError
+
+    with pytest.raises(SolverError, match="missed"):
+        preconditioned_system_solve(CoupledBlocks(solver), system, solver.rhs()[None],
+                                    rtol=1e-12, max_iterations=1)  # fmt: skip
 
 
 def test_block_apply_matches_numpy():

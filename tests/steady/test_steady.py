@@ -406,3 +406,30 @@ def test_a_finished_state_does_not_keep_its_operators():
     r = vs.steady_tank_treading(vs.Physics(v=0.95, lam=2.0, chi=1.0), vs.Discretisation(12, 4))
     kept = {k for k in r.problem.__dict__ if k.startswith("_kept")}
     assert not kept and r.jacobian is not None and r.split["flow"].S_xz is not None
+
+
+def test_an_adopted_preconditioner_gives_the_same_residual_fast(steady):
+    """A problem at another (chi, lam) adopts the kept factorised system of its neighbour as a
+    preconditioner (never as an exact inverse): its solve equals the nested GMRES of a fresh
+    problem (1e-8 / 1e-9) to that solver's tolerance, in a few preconditioned iterations,
+    and its Jacobian is its own (lam differs: the adopted system must not be used as exact)."""
+    from vesicle.steady.newton import NEWTON_TOLERANCES
+    from vesicle.steady.problem import SteadyProblem
+
+    P = steady.problem
+    a = np.asarray(steady.a, float)
+    P.jacobian(a)  # factorises a's shape and keeps it
+    other = SteadyProblem(P.physics.replace(lam=8.3, chi=9.0), P.discretisation,
+                          NEWTON_TOLERANCES)  # fmt: skip
+    fresh = SteadyProblem(other.physics, P.discretisation, NEWTON_TOLERANCES)
+    other.adopt(P)
+    assert other.kept.system is None and other.kept.preconditioner is not None
+    moved = a + 1e-4
+    r_other, flow = other.adot(moved)
+    r_fresh, _ = fresh.adot(moved)
+    assert flow.outer_iterations <= 10 and flow.inner_iterations == 0  # preconditioned
+    np.testing.assert_allclose(r_other, r_fresh, atol=1e-7 * np.abs(r_fresh).max())
+    M_other, _ = other.jacobian(moved)
+    M_fresh, _ = fresh.jacobian(moved)
+    np.testing.assert_allclose(M_other, M_fresh, atol=1e-9 * np.abs(M_fresh).max())
+    P.release()

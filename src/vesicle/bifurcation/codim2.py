@@ -224,6 +224,13 @@ class Problem(abc.ABC):
     # Optional: ``state_jacobian(x, p) -> ndarray (n, n)``, the exact ``F_x`` where it differs
     # from :meth:`jacobian`; Newton's rows of ``F`` (and the curves' tangents) use it, so that
     # they converge quadratically.  Not defined here: a problem without it has ``F_x = J``.
+    #
+    # Optional: ``newton_action_derivative(x, p, q, direction, J) -> like q``, a cheaper
+    # approximation of :meth:`jacobian_action_derivative` used only inside Newton matrices and
+    # tangents (where its error slows the convergence but does not move the solution); ``J``
+    # is :meth:`jacobian` at ``(x, p)`` when the caller has it, else ``None``.  The test functions
+    # (cusp coefficient, BT) keep the accurate derivative.  A problem with a false attribute
+    # ``newton_actions`` is treated as not having the hook (its reference path).
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``F_p(x, p)``, shape (n, 2); default :func:`fd_parameter_derivative`."""
@@ -285,8 +292,9 @@ class Evaluations:
 class _Evaluator:
     """The problem behind a counter, with the defaults routed through the counted calls."""
 
-    def __init__(self, problem: Any, n: int, differences: str = "forward",
-                 forward_step: float | None = None):
+    def __init__(
+        self, problem: Any, n: int, differences: str = "forward", forward_step: float | None = None
+    ):
         for name in ("residual", "jacobian"):
             if not callable(getattr(problem, name, None)):
                 raise TypeError(f"the problem has no {name}(x, p) method")
@@ -306,6 +314,8 @@ class _Evaluator:
         self.identity_mass = bool(np.array_equal(self.B, np.eye(n)))
         self.counts = [0, 0, 0, 0]
         self.own_state_jacobian = callable(getattr(problem, "state_jacobian", None))
+        self.own_newton_action = callable(getattr(problem, "newton_action_derivative", None)) \
+            and bool(getattr(problem, "newton_actions", True))  # fmt: skip
         self.differences = differences
         self.forward_step = _FORWARD_STEP if forward_step is None else float(forward_step)
         self.base: tuple = (None, None, None, None)
@@ -370,7 +380,25 @@ class _Evaluator:
 
     def step_action(self, x: np.ndarray, p: np.ndarray, q: np.ndarray, direction: np.ndarray):
         """``F_xz(q, direction)`` for a Newton matrix: the problem's hook, else central or
-        forward differences of ``J`` (forward: one Jacobian, reusing ``J`` at the base)."""
+        forward differences of ``J`` (forward: one Jacobian, reusing ``J`` at the base);
+        the problem's ``newton_action_derivative`` before all of them where it has one."""
+        if self.own_newton_action:
+            self.counts[3] += 1
+            bx, bp, _, J = self.base
+            same = bx is not None and np.array_equal(bx, x) and np.array_equal(bp, p)
+            r = self.problem.newton_action_derivative(
+                np.array(x, float),
+                np.array(p, float),
+                np.array(q),
+                np.array(direction, float),
+                J if same else None,
+            )
+            r = np.asarray(r)
+            if r.shape != np.shape(q):
+                raise ValueError(
+                    f"newton_action_derivative has shape {r.shape}, expected {np.shape(q)}"
+                )
+            return r
         if self.own_action or self.differences == "central":
             return self.action(x, p, q, direction)
         bx, bp, _, J = self.base
@@ -490,8 +518,9 @@ class Settings:
             raise ValueError(f"need 0 < ds_min <= ds <= ds_max, got {self}")
         if self.max_iter < 1 or self.n_eigenvalues < 0 or self.target_iterations < 1 or \
                 self.central_after < 0:  # fmt: skip
-            raise ValueError("need max_iter >= 1, n_eigenvalues >= 0, target_iterations >= 1, "
-                             "central_after >= 0")
+            raise ValueError(
+                "need max_iter >= 1, n_eigenvalues >= 0, target_iterations >= 1, central_after >= 0"
+            )
         if not (self.ftol > 0 and self.step_tol > 0 and self.locate_tol > 0):
             raise ValueError("tolerances must be positive")
         if not 0 < self.max_angle < math.pi:

@@ -34,11 +34,17 @@ from numba import njit
 from scipy.sparse.linalg import LinearOperator, gmres
 
 from vesicle.blas import blas_threads
-from vesicle.solve.solver import FlowResult, VelocityTensionSolver, _Counter
+from vesicle.solve.solver import FlowResult, SolverError, VelocityTensionSolver, _Counter
 from vesicle.sphere.bases import FullBasis
 from vesicle.sphere.transforms import transform
 
-__all__ = ["CoupledBlocks", "FactorisedSystem", "block_apply_reference", "preconditioned_solve"]
+__all__ = [
+    "CoupledBlocks",
+    "FactorisedSystem",
+    "block_apply_reference",
+    "preconditioned_solve",
+    "preconditioned_system_solve",
+]
 
 log = logging.getLogger(__name__)
 
@@ -251,6 +257,61 @@ class FactorisedSystem(CoupledBlocks):
         return s._result(u, t, force, rhs_t, _Counter(), _Counter(), [], True, bending, seconds)
 
 
+def preconditioned_system_solve(
+    blocks: CoupledBlocks,
+    system: FactorisedSystem,
+    b_u: np.ndarray,
+    r: np.ndarray | None = None,
+    rtol: float = 1e-10,
+    max_iterations: int = 60,
+) -> tuple[np.ndarray, np.ndarray]:
+    """``A [u; t] = [b_u; r]`` of ``blocks``' shape for a batch of right-hand sides, each by
+    GMRES right-preconditioned with the exact inverse of a nearby shape's ``system`` (see
+    :func:`preconditioned_solve`, which is this for the shape's own right-hand side).
+
+    Returns ``u`` (B, 3, nt, np) and the tensions' band coordinates (B, P).  Raises
+    :class:`~vesicle.solve.solver.SolverError` if one of them misses ``rtol``."""
+    u, coef, _, converged = _preconditioned(blocks, system, b_u, r, rtol, max_iterations)
+    if not all(converged):
+        raise SolverError(
+            f"preconditioned GMRES missed rtol {rtol:.0e} in {max_iterations} iterations"
+        )
+    return u, coef
+
+
+def _preconditioned(blocks, system, b_u, r, rtol, max_iterations):
+    """The batched preconditioned GMRES of :func:`preconditioned_system_solve`, with each
+    solve's iteration count and whether it converged."""
+    solver = blocks.solver
+    D = solver.scale
+    grid = blocks.shape.grid.shape
+    nu, nc = 3 * D.size, blocks.tension_basis.size
+    if system.tension_basis.size != nc or system.shape.grid.shape != grid:
+        raise ValueError("the preconditioner's system has another grid or tension band")
+    b_u = np.asarray(b_u, float).reshape(-1, 3, *grid)
+    r = np.zeros((b_u.shape[0], nc)) if r is None else np.atleast_2d(np.asarray(r, float))
+
+    def matvec(y):  # A P^-1 y, in the scaled residual space
+        u, coef = system.solve_coefficients((y[:nu].reshape(3, *grid) / D)[None], y[nu:])
+        top, constraint = blocks.apply(u[0], coef[0])
+        return np.concatenate([(top * D).ravel(), constraint])
+
+    us, coefs, counts, flags = [], [], [], []
+    with blas_threads(system.workers):
+        for bu, rr in zip(b_u, r, strict=True):
+            b = np.concatenate([(bu * D).ravel(), rr])
+            counter = _Counter()
+            y, info = gmres(LinearOperator((nu + nc, nu + nc), matvec=matvec, dtype=float), b,
+                            rtol=rtol, atol=0.0, restart=max_iterations, maxiter=1,
+                            callback=counter, callback_type="pr_norm")  # fmt: skip
+            u, coef = system.solve_coefficients((y[:nu].reshape(3, *grid) / D)[None], y[nu:])
+            us.append(u[0])
+            coefs.append(coef[0])
+            counts.append(counter)
+            flags.append(info == 0)
+    return np.array(us), np.array(coefs), counts, flags
+
+
 def preconditioned_solve(
     solver: VelocityTensionSolver,
     system: FactorisedSystem,
@@ -275,27 +336,11 @@ def preconditioned_solve(
     """
     t0 = time.perf_counter()
     blocks = CoupledBlocks(solver)
-    D = solver.scale
-    grid = solver.shape.grid.shape
-    nu, nc = 3 * D.size, blocks.tension_basis.size
-    if system.tension_basis.size != nc or system.shape.grid.shape != grid:
-        raise ValueError("the preconditioner's system has another grid or tension band")
-
-    def matvec(y):  # A P^-1 y, in the scaled residual space
-        u, coef = system.solve_coefficients((y[:nu].reshape(3, *grid) / D)[None], y[nu:])
-        top, constraint = blocks.apply(u[0], coef[0])
-        return np.concatenate([(top * D).ravel(), constraint])
-
     b_u = solver.rhs()
-    b = np.concatenate([(b_u * D).ravel(), np.zeros(nc)])
-    counter = _Counter()
-    with blas_threads(system.workers):
-        y, info = gmres(LinearOperator((nu + nc, nu + nc), matvec=matvec, dtype=float), b,
-                        rtol=rtol, atol=0.0, restart=max_iterations, maxiter=1,
-                        callback=counter, callback_type="pr_norm")  # fmt: skip
-        u, coef = system.solve_coefficients((y[:nu].reshape(3, *grid) / D)[None], y[nu:])
+    u, coef, counts, flags = _preconditioned(blocks, system, b_u[None], None, rtol,
+                                             max_iterations)  # fmt: skip
     u, sigma = u[0], blocks.tension(coef[0])
     force = solver._multiplier_force(sigma)
     rhs_t = solver._constraints(system.solve_uu(b_u[None])[0])  # the scale of the residuals
-    return solver._result(u, sigma, force, rhs_t, counter, _Counter(), [], info == 0, True,
+    return solver._result(u, sigma, force, rhs_t, counts[0], _Counter(), [], flags[0], True,
                           time.perf_counter() - t0)  # fmt: skip
