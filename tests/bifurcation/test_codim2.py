@@ -415,6 +415,29 @@ def test_a_curve_lands_on_the_values_of_p0_asked_for():
     assert all(q.converged for q in curve.points) and curve.end == "bounds"
 
 
+def test_landing_ahead_lands_on_the_same_values_with_fewer_points():
+    """``land_ahead = 1.5`` lands on a value up to 1.5 steps ahead directly: the same exact
+    points (p1 = 3 (|p0|/2)^(2/3)) and fewer corrected points in all than with 1 (the
+    intermediate points before each landing are skipped)."""
+    problem = Cusp()
+    start = locate_fold(problem, problem.to_u([-0.98, 2.7, 0.1]), [2.0, 3.0], free=0)
+    landing = list(np.linspace(1.9, 0.1, 12))
+    curves = {}
+    for ahead in (1.0, 1.5):
+        s = Settings(ds=0.3, ds_max=0.3, land_ahead=ahead)
+        curves[ahead] = fold_curve(problem, start, direction=(0, -1),
+                                   bounds=[[0.05, 5], [-1, 3.05]], landing=landing,
+                                   settings=s)  # fmt: skip
+        for value in landing:
+            [hit] = [q for q in curves[ahead].p if q[0] == value]
+            assert hit[1] == pytest.approx(3 * (abs(value) / 2) ** (2 / 3), abs=EXACT)
+    assert len(curves[1.5].points) < len(curves[1.0].points)
+    with pytest.raises(ValueError, match="land_ahead"):
+        Settings(land_ahead=0.5)
+    with pytest.raises(ValueError, match="stall_after"):
+        Settings(stall_after=-1)
+
+
 @pytest.mark.parametrize("s", [-1.0, 1.0])
 def test_bogdanov_takens_fold_curve_then_switch_to_hopf(s):
     problem = BogdanovTakens(s)

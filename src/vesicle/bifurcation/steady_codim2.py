@@ -342,6 +342,7 @@ def locate_type_change(
     start: Callable[[str, float], codim2.CurvePoint] | None = None,
     probes: Sequence[float] = (),
     gap_tol: float = 1e-4,
+    estimate: tuple[float, float] | None = None,
 ) -> TypeChange:
     """The ``chi`` in ``chi_bracket`` where the fold point (held ``chi``, free ``lambda``) and
     the Hopf point of the other sheet have the same ``lambda``: Brent's method on
@@ -355,7 +356,10 @@ def locate_type_change(
     high end down, before Brent's method, which then runs between the first two of opposite
     sign (the high end first: at v = 0.95 the low end of the overlap is the BT point, where the
     Hopf point is hardest to solve).  ``located`` also needs the two lambdas at the found chi
-    within ``gap_tol`` (measured: 3e-6 at xtol 1e-6; a jump between sheets leaves about 0.1)."""
+    within ``gap_tol`` (measured: 3e-6 at xtol 1e-6; a jump between sheets leaves about 0.1).
+    ``estimate = (chi, w)``: a guess of the crossing (e.g. from the curves' own points); the
+    gap is evaluated first at ``chi exp(-w)`` and ``chi exp(w)`` (inside the bracket), and
+    Brent's method runs between them if they differ in sign, before any probe."""
     last = {"fold": fold, "hopf": hopf}
 
     def at(kind: str, chi: float) -> codim2.CurvePoint:
@@ -383,6 +387,13 @@ def locate_type_change(
         return float(h.p[1] - f.p[1])
 
     lo, hi = sorted(chi_bracket)
+    if estimate is not None:
+        e_lo = max(lo, estimate[0] * math.exp(-estimate[1]))
+        e_hi = min(hi, estimate[0] * math.exp(estimate[1]))
+        if e_lo < e_hi:
+            g_hi, g_lo = gap(e_hi), gap(e_lo)
+            if g_hi * g_lo <= 0:
+                return _crossing(at, gap, e_lo, e_hi, xtol, gap_tol)
     nodes = [hi, *sorted((c for c in probes if lo < c < hi), reverse=True), lo]
     gaps = [gap(nodes[0])]
     for c in nodes[1:]:  # down to the first change of sign
@@ -395,7 +406,12 @@ def locate_type_change(
             f"(gaps {', '.join(f'{g:+.3g}' for g in gaps)} from the top)"
         )
     k = len(gaps) - 1
-    chi = brentq(gap, nodes[k], nodes[k - 1], xtol=xtol)
+    return _crossing(at, gap, nodes[k], nodes[k - 1], xtol, gap_tol)
+
+
+def _crossing(at, gap, a: float, b: float, xtol: float, gap_tol: float) -> TypeChange:
+    """Brent's method on ``gap`` over ``[a, b]`` (a change of sign) and the points there."""
+    chi = brentq(gap, a, b, xtol=xtol)
     f, h = at("fold", chi), at("hopf", chi)
     gap_c = float(h.p[1] - f.p[1])
     # located: both points converged and they meet (a jump of one of them to another sheet
