@@ -113,16 +113,17 @@ def test_a_hopf_point_located_on_the_augmented_system_is_the_bracketed_lambda_c(
     assert point.omega > 0.5 and not point.other_unstable
 
 
-@pytest.mark.slow
 def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_curve():
-    """v = 0.95, N = 4 on 16x32 (about 2 min): the lower sheet's fold and the upper sheet's
-    Hopf point solved for at each chi, and the chi where their lambdas meet.  Independent
-    references: the one-parameter tracer bracketed the change in [0.2544, 0.2577] with
-    lambda_c about 7.520 and omega_R 0.058 at its Hopf end (docs/notes/
-    continuation-measurements.md); SPEC 14: near 0.25.  Measured: 0.256642, 7.519719,
-    omega_R 0.05720."""
+    """v = 0.95, N = 4 on 16x32 with the neutral curve's settings: the lower sheet's fold and
+    the upper sheet's Hopf point solved for at each chi, and the chi where their lambdas meet.
+    Fails if the type change is not located or moves out of the independent references: the
+    one-parameter tracer bracketed the change in [0.2544, 0.2577] with lambda_c about 7.520
+    and omega_R 0.058 at its Hopf end (docs/notes/continuation-measurements.md); SPEC 14: near
+    0.25.  Measured: 0.256642, 7.519719, omega_R 0.05720 (also with central differences)."""
+    from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS
+
     disc = vs.Discretisation(grid=16, degree=4)
-    settings = codim2.Settings(ftol=1e-8, step_tol=1e-6, newton_differences="central")
+    settings = DEFAULT_SETTINGS
     low = vs.branch(vs.Physics(v=0.95, lam=7.0, chi=0.26), disc, "lam", [7.0, 7.3, 7.45, 7.5],
                     locate=False, arclength=False).points[-1].steady  # fmt: skip
     up = vs.steady_tank_treading(vs.Physics(v=0.95, lam=7.59, chi=0.27), disc)
