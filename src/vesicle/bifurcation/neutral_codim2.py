@@ -83,9 +83,9 @@ _FAILURES = (NewtonError, ShapeError, SolverError)
 #: converges in 2-4 where it converges at all: next to the cusp of the S at v = 0.95 failures
 #: of 8 iterations cost most of the fold curve), and after 2 if its residual is not below its
 #: start's by then (those never recovered); the first step is 0.3 (0.1 ramped up over three
-#: points of every curve), and a requested chi up to 1.5 steps ahead is landed on directly (a refused
-#: step is still halved down to 1e-5: with 1e-3 the fold curve at v = 0.85 stopped short of
-#: the cusp it had passed and located).
+#: points of every curve), and a requested chi up to 1.5 steps ahead is landed on directly
+#: (a refused step is still halved down to 1e-5: a run at v = 0.85 with 1e-3 reported no
+#: cusp where the earlier settings had located one).
 DEFAULT_SETTINGS = codim2.Settings(ftol=1e-8, step_tol=1e-6, forward_step=1e-5, ds=0.3,
                                    ds_max=0.6, target_iterations=3, locate_tol=1e-7,
                                    central_after=3, max_iter=5, stall_after=2,
