@@ -67,6 +67,8 @@ QUOTES = [
     ("docs/howto/continuation.md", "neutral_n8", r"other core busy\), (1\.6.*? at the folds)"),
     ("docs/howto/continuation.md", "neutral_codim2_13",
      r"at N = 4 on 16×32 about (\d+ min) for 13 χ from 0\.1 to 10 at"),
+    ("docs/howto/continuation.md", "neutral_codim2_n8",
+     r"at N = 8 on 32×64 about (\d+ min) for the same \(alone\)"),
     ("docs/howto/report.md", "paper_quick", r"The quick report: about (\d+ min) on 2 cores"),
     ("docs/howto/report.md", "paper_quick:measured", r"\((\d+ min \d+ s) measured on 2026-12-03"),
 ]
