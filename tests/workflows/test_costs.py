@@ -41,7 +41,7 @@ QUOTES = [
     ("README.md", "run_ros34pw2", r"(\S+ s) with `--integrator ros34pw2"),
     ("README.md", "run_default", r"< 1e-3\) \(about (\d+ min(?: \d+ s)?) on 2 cores"),
     ("README.md", "tests", r"the command CI runs\): (about \d+ min) on 2 cores"),
-    ("README.md", "tests:measured", r"\(CI: (\d+ min \d+ s for \d+ tests)\)"),
+    ("README.md", "tests:measured", r"\(measured: (\d+ min \d+ s for \d+ tests), a fresh"),
     ("README.md", "paper_quick", r"shorter runs\): about (\d+ min) on 2 cores"),
     ("README.md", "paper_quick:measured", r"\((\d+ min \d+ s) measured on 2026-12-03"),
     ("README.md", "neutral_quick", r"about ([\d.]+ min) for χ = 0\.2, 1, 3"),

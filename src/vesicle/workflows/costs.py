@@ -112,17 +112,16 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         when="2026-12-06; the install is not included",
         source="issue 38's session (measured with /usr/bin/time)",
     ),
-    # The README's quick-start command 2. Not measured in the docs: stated in issue 38 (the
-    # suite alone on this 2-core machine; CI's pytest 8 min 27 s for 479 tests, the whole CI
-    # job 557 s with the install and ruff).
+    # The README's quick-start command 2, from a fresh clone (docs/notes/codim2-measurements.md
+    # *Speed*; before: issue 38, CI's pytest 8 min 27 s for 479 tests).
     "tests": Cost(
         command="OPENBLAS_NUM_THREADS=1 python -m pytest -q",
-        figure="about 10 min",
+        figure="about 11 min",
         resolution="the default selection (slow tests deselected)",
-        measured="8 min 27 s for 479 tests",
-        when="issue 38: about 10 min alone on the 2-core machine; the measured value is CI's "
-             "pytest, whose last whole run (install and ruff included) took 557 s",
-        source="issue 38",
+        measured="11 min 4 s for 844 tests",
+        when="2026-12-06: a fresh clone and virtual environment, alone on the 2-core machine "
+             "(pytest's own clock)",
+        source="docs/notes/codim2-measurements.md",
     ),
     # 16 min 44 s: docs/paper.md *Cost of the quick report*, the last row (2026-12-03 evening,
     # commit f37d9e4). Lost: "about half an hour" of the old vesicle paper --help (never a
