@@ -130,7 +130,10 @@ def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_c
     eq = SteadyEquations(low.physics, disc, form="spec")
     fold = codim2.locate_fold(eq, *eq.state(low), free=1, settings=settings)
     hopf = codim2.locate_hopf(eq, *eq.state(up), free=1, settings=settings)
-    change = locate_type_change(eq, fold, hopf, (0.25, 0.265), settings=settings)
+    seen = []
+    change = locate_type_change(eq, fold, hopf, (0.25, 0.265), settings=settings,
+                                progress=lambda d: seen.append(d["chi"]))  # fmt: skip
+    assert len(seen) == len(set(seen))  # no chi solved twice (Brent's first calls: the ends)
     assert change.located and not change.fold.other_unstable and not change.hopf.other_unstable
     assert 0.2544 <= change.chi <= 0.2577
     assert change.lambda_c == pytest.approx(7.520, abs=5e-3)

@@ -498,29 +498,6 @@ def _nearest(curve: _Curve, t: float) -> codim2.CurvePoint:
     return min(pts, key=lambda q: abs(q.p[0] - t))
 
 
-def _crossing_estimate(fold: _Curve, hopf: _Curve, lo: float, hi: float):
-    """Where the two curves' own points, interpolated linearly in log chi, cross inside
-    ``[lo, hi]`` (log chi): ``(chi, half-width in log chi)`` of a bracket to try first, or
-    ``None``.  The half-width is half the spacing of the points around the crossing."""
-    def line(curve):
-        pts = sorted((q.p[0], q.p[1]) for q in curve.before_turn()
-                     if q.kind == curve.kind and q.converged and not q.other_unstable)  # fmt: skip
-        return np.array([t for t, _ in pts]), np.array([lam for _, lam in pts])
-
-    (tf, lf), (th, lh) = line(fold), line(hopf)
-    nodes = np.unique(np.concatenate([tf, th]))
-    nodes = nodes[(nodes >= max(lo, tf.min(initial=np.inf), th.min(initial=np.inf)))
-                  & (nodes <= min(hi, tf.max(initial=-np.inf), th.max(initial=-np.inf)))]
-    if nodes.size < 2:
-        return None
-    gap = np.interp(nodes, th, lh) - np.interp(nodes, tf, lf)
-    for i in range(nodes.size - 1):
-        if gap[i] == 0.0 or gap[i] * gap[i + 1] < 0:
-            t = nodes[i] - gap[i] * (nodes[i + 1] - nodes[i]) / (gap[i + 1] - gap[i])
-            return math.exp(t), max(0.002, 0.5 * (nodes[i + 1] - nodes[i]))
-    return None
-
-
 def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dict | None]:
     """Where the winning candidate changes kind along the curves' own points: the two curves
     that swap, then Brent's method on their difference over the range of chi both cover
@@ -558,11 +535,10 @@ def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dic
         a, b = math.exp(lo + 0.5 * margin), math.exp(hi - margin)
         # the gap is probed from the switch the curves' points show, outwards, before Brent
         probes = [math.exp(lo + f * (hi - lo)) for f in (0.25, 0.5, 0.75)]
-        guess = _crossing_estimate(fold.curve, hopf.curve, math.log(a), math.log(b))
         try:
             change = locate_type_change(
                 ctx.eq, _nearest(fold.curve, math.log(a)), _nearest(hopf.curve, math.log(a)),
-                (a, b), settings=ctx.settings, probes=probes, estimate=guess,
+                (a, b), settings=ctx.settings, probes=probes,
                 progress=lambda d: ctx.say({"type_change": d}),
                 start=lambda kind, chi, f=fold.curve, h=hopf.curve: _nearest(
                     f if kind == "fold" else h, math.log(chi)))  # fmt: skip

@@ -342,7 +342,6 @@ def locate_type_change(
     start: Callable[[str, float], codim2.CurvePoint] | None = None,
     probes: Sequence[float] = (),
     gap_tol: float = 1e-4,
-    estimate: tuple[float, float] | None = None,
 ) -> TypeChange:
     """The ``chi`` in ``chi_bracket`` where the fold point (held ``chi``, free ``lambda``) and
     the Hopf point of the other sheet have the same ``lambda``: Brent's method on
@@ -357,9 +356,7 @@ def locate_type_change(
     sign (the high end first: at v = 0.95 the low end of the overlap is the BT point, where the
     Hopf point is hardest to solve).  ``located`` also needs the two lambdas at the found chi
     within ``gap_tol`` (measured: 3e-6 at xtol 1e-6; a jump between sheets leaves about 0.1).
-    ``estimate = (chi, w)``: a guess of the crossing (e.g. from the curves' own points); the
-    gap is evaluated first at ``chi exp(-w)`` and ``chi exp(w)`` (inside the bracket), and
-    Brent's method runs between them if they differ in sign, before any probe."""
+    Each chi's gap is solved once (Brent's first calls are the bracket's ends again)."""
     last = {"fold": fold, "hopf": hopf}
 
     def at(kind: str, chi: float) -> codim2.CurvePoint:
@@ -379,21 +376,19 @@ def locate_type_change(
         last[kind] = r
         return r
 
+    gaps_at: dict[float, float] = {}  # Brent's first calls are the bracket's ends again
+
     def gap(chi: float) -> float:
+        if chi in gaps_at:
+            return gaps_at[chi]
         f, h = at("fold", chi), at("hopf", chi)
         if progress is not None:
             progress({"chi": chi, "fold": float(f.p[1]), "hopf": float(h.p[1]),
                       "omega_R": float(h.omega)})  # fmt: skip
-        return float(h.p[1] - f.p[1])
+        gaps_at[chi] = float(h.p[1] - f.p[1])
+        return gaps_at[chi]
 
     lo, hi = sorted(chi_bracket)
-    if estimate is not None:
-        e_lo = max(lo, estimate[0] * math.exp(-estimate[1]))
-        e_hi = min(hi, estimate[0] * math.exp(estimate[1]))
-        if e_lo < e_hi:
-            g_hi, g_lo = gap(e_hi), gap(e_lo)
-            if g_hi * g_lo <= 0:
-                return _crossing(at, gap, e_lo, e_hi, xtol, gap_tol)
     nodes = [hi, *sorted((c for c in probes if lo < c < hi), reverse=True), lo]
     gaps = [gap(nodes[0])]
     for c in nodes[1:]:  # down to the first change of sign
