@@ -408,6 +408,42 @@ def test_a_finished_state_does_not_keep_its_operators():
     assert not kept and r.jacobian is not None and r.split["flow"].S_xz is not None
 
 
+def test_a_jacobian_on_a_reused_factorisation_is_the_factorised_one(steady):
+    """``reuse_factorisation``: the Jacobian of a moved shape at another lam, its columns by
+    GMRES preconditioned with the neighbour's factorised system, equals the one a fresh
+    problem factorises (the independent solve) to the GMRES tolerance (1e-11), without a
+    factorisation of its own; a shape too far for 10 iterations is factorised instead, and
+    reuse stops once it costs more than a factorised Jacobian."""
+    from vesicle.steady.newton import NEWTON_TOLERANCES
+    from vesicle.steady.problem import SteadyProblem
+
+    P = steady.problem
+    a = np.asarray(steady.a, float)
+    base = SteadyProblem(P.physics, P.discretisation, NEWTON_TOLERANCES,
+                         reuse_factorisation=True)  # fmt: skip
+    base.jacobian(a)
+    near = SteadyProblem(P.physics.replace(lam=P.physics.lam * 1.02), P.discretisation,
+                         NEWTON_TOLERANCES, reuse_factorisation=True)  # fmt: skip
+    near.adopt(base)
+    moved = a + 1e-4 * np.random.default_rng(3).standard_normal(a.size)
+    M_near, _ = near.jacobian(moved)
+    assert near.kept.system is None  # no factorisation: the adopted one preconditioned
+    fresh = SteadyProblem(near.physics, P.discretisation, NEWTON_TOLERANCES)
+    M_fresh, _ = fresh.jacobian(moved)
+    np.testing.assert_allclose(M_near, M_fresh, atol=1e-8 * np.abs(M_fresh).max())
+    far = SteadyProblem(P.physics.replace(lam=P.physics.lam * 3.0), P.discretisation,
+                        NEWTON_TOLERANCES, reuse_factorisation=True)  # fmt: skip
+    far.adopt(base)
+    far.kept.reuse_cost = None
+    M_far, _ = far.jacobian(a + 3e-2)
+    assert far.kept.system is not None  # GMRES missed 1e-11 in 10 iterations: factorised
+    far.kept.reuse_cost = 2.0  # a reused Jacobian that cost twice a factorised one
+    far.jacobian(a + 2e-2)
+    assert far.kept.system[0] == far._key(far.shape(a + 2e-2))  # factorised, not reused
+    for q in (base, near, fresh, far):
+        q.release()
+
+
 def test_an_adopted_preconditioner_gives_the_same_residual_fast(steady):
     """A problem at another (chi, lam) adopts the kept factorised system of its neighbour as a
     preconditioner (never as an exact inverse): its solve equals the nested GMRES of a fresh

@@ -93,6 +93,11 @@ _DIVERGED = 100.0
 #: the curve goes on towards omega = 0 (halving its steps) without trying.
 _BT_TRIES = 6
 
+#: A corrected Hopf point whose omega fell below this fraction of the last point's is refused
+#: as if omega had crossed zero (omega = 0 makes the Hopf system degenerate: the fold curve
+#: solves it too).
+_OMEGA_FLOOR = 1e-6
+
 
 # ---------------------------------------------------------------------------------------------
 # The problem
@@ -230,7 +235,8 @@ class Problem(abc.ABC):
     # tangents (where its error slows the convergence but does not move the solution); ``J``
     # is :meth:`jacobian` at ``(x, p)`` when the caller has it, else ``None``.  The test functions
     # (cusp coefficient, BT) keep the accurate derivative.  A problem with a false attribute
-    # ``newton_actions`` is treated as not having the hook (its reference path).
+    # ``newton_actions`` is treated as not having the hook (its reference path); likewise one
+    # with a false ``exact_parameter_derivative`` for :meth:`parameter_derivative`.
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``F_p(x, p)``, shape (n, 2); default :func:`fd_parameter_derivative`."""
@@ -300,7 +306,8 @@ class _Evaluator:
                 raise TypeError(f"the problem has no {name}(x, p) method")
         self.problem = problem
         self.n = n
-        self.own_parameter_derivative = _overrides(problem, "parameter_derivative")
+        self.own_parameter_derivative = _overrides(problem, "parameter_derivative") and \
+            bool(getattr(problem, "exact_parameter_derivative", True))  # fmt: skip
         self.own_action = _overrides(problem, "jacobian_action_derivative")
         mass = getattr(problem, "mass", None)
         if callable(mass):
@@ -448,8 +455,15 @@ class Settings:
         Converged when the largest residual (``|F|_inf`` and the test functions) is below
         this ...
     step_tol : float
-        ... and the last Newton step was below ``step_tol (1 + |u|_inf)`` (quadratic
-        convergence: the error is then about its square).
+        ... and the iterate's error, estimated from the last two Newton steps, below
+        ``step_tol (1 + |u|_inf)``: the last step itself, or after two steps (with
+        ``estimate_error``) ``theta / (1 - theta)`` times it, ``theta < 1`` the ratio of the
+        last step to the one before (Deuflhard, *Newton Methods for Nonlinear Problems*,
+        2004, Sec. 2.1: the error bound of a contraction with that rate; quadratic convergence
+        makes it an overestimate).  It saves the last iteration, whose only purpose was to
+        show a small step: a Jacobian and a Newton step per point.
+    estimate_error : bool
+        Whether the step ratio's error estimate may stand for the last step (above).
     max_angle : float
         Largest angle (rad) between consecutive secants; a larger turn is refused and the
         step halved (a guard against jumping to another curve).
@@ -511,6 +525,7 @@ class Settings:
     max_iter: int = 8
     ftol: float = 1e-10
     step_tol: float = 1e-6
+    estimate_error: bool = True
     max_angle: float = 0.4
     locate_tol: float = 1e-11
     unstable_tol: float = 0.0
@@ -1019,6 +1034,7 @@ def _newton_iterations(ev, system, u, rows, target, s: Settings, max_iter) -> _S
     rows = np.vstack([norm_rows, np.reshape(rows, (-1, u.size))])
     target = np.concatenate([norm_target, np.ravel(target)])
     last, iterations, J, ctx, residual, best = math.inf, 0, None, None, math.inf, math.inf
+    before = math.inf  # the step before the last
     first = math.inf
     while True:
         x, p = u[:n], u[n : n + 2]
@@ -1035,7 +1051,8 @@ def _newton_iterations(ev, system, u, rows, target, s: Settings, max_iter) -> _S
         if not np.isfinite(residual):
             return _Solved(u, False, iterations, math.inf, J, ctx)
         scale = 1.0 + float(np.max(np.abs(u)))
-        if residual <= s.ftol and (iterations == 0 or last <= s.step_tol * scale):
+        small = iterations == 0 or _error(last, before, s) <= s.step_tol * scale
+        if residual <= s.ftol and small:
             return _Solved(u, True, iterations, float(residual), J, ctx)
         best = min(best, residual)
         if iterations == 0:
@@ -1055,8 +1072,17 @@ def _newton_iterations(ev, system, u, rows, target, s: Settings, max_iter) -> _S
         if not np.all(np.isfinite(du)):
             return _Solved(u, False, iterations, float(residual), J, ctx)
         u = u + du
-        last = float(np.max(np.abs(du)))
+        before, last = last, float(np.max(np.abs(du)))
         iterations += 1
+
+
+def _error(last: float, before: float, s: Settings) -> float:
+    """The estimated error of the iterate after a step of size ``last`` (max-norm) that
+    followed one of size ``before`` (see :class:`Settings`, ``step_tol``)."""
+    if not s.estimate_error or not math.isfinite(before) or before <= 0.0:
+        return last
+    theta = last / before
+    return min(last, theta / (1.0 - theta) * last) if theta < 1.0 else last
 
 
 def _tangent(ev, system, u) -> np.ndarray:
@@ -1521,7 +1547,10 @@ class _Tracer:
                     log.debug("%s curve: landing on p0 = %.6g refused: %s", form.kind, land,
                               refused)  # fmt: skip
                     continue
-            if refused is None and form.kind == "hopf" and form.omega(solved.u) <= 0.0:
+            # omega = 0 (to rounding) is not a Hopf point: there the complex border condition
+            # loses a row and the fold curve solves the system too (a corrector can land on it)
+            if refused is None and form.kind == "hopf" and \
+                    form.omega(solved.u) <= _OMEGA_FLOOR * form.omega(u):  # fmt: skip
                 if bt_tries < _BT_TRIES and self.hopf_end(u):
                     end = "bt"
                     break

@@ -101,7 +101,9 @@ LOSS_STEP = 1.08
 JUMP = 4.0
 
 #: A curve is given up after this many points in a row with another unstable eigenvalue
-#: (it is not the stability boundary there; the points found are kept and reported).
+#: (it is not the stability boundary there; the points found are kept and reported); a curve
+#: started from a BT point after its first point if that one has (the BT normal form: the
+#: half of the curve where the pair's other eigenvalue is unstable stays so).
 OFF_BOUNDARY = 3
 
 #: A fold curve is given up once its chi has turned back by this much in log chi (its
@@ -372,6 +374,11 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
             # region) by TURNED_BACK in log chi
             run[0] = run[0] + 1 if point.other_unstable else 0
             if run[0] >= OFF_BOUNDARY:
+                return True
+            if from_bt and len(run) == 3 and point.other_unstable:
+                # the first point from a BT point: of the two halves of a curve through BT,
+                # the one where the pair's other eigenvalue (the trace of the 2x2 block,
+                # which changes sign at BT) is unstable is never the boundary
                 return True
             if len(run) == 3:  # the first step sets the way the curve goes in chi
                 run.append(1.0 if point.p[0] >= run[1] else -1.0)

@@ -66,6 +66,11 @@ ACTIONS = ("linearised", "jacobians")
 #: Relative step of :meth:`SteadyEquations.newton_action_derivative`'s forward difference.
 ACTION_STEP = 1e-5
 
+#: How ``G_p`` is formed: ``"exact"``, the system differentiated in its parameters
+#: (:meth:`SteadyEquations.parameter_derivative`), or ``"differences"`` of residuals (the
+#: reference, and what the continuation does for a problem without the hook).
+PARAMETER_DERIVATIVES = ("exact", "differences")
+
 log = logging.getLogger(__name__)
 
 
@@ -86,12 +91,19 @@ class SteadyEquations(codim2.Problem):
         jacobian: str = "linearised",
         form: str = "curvature",
         actions: str = "linearised",
+        parameter_derivatives: str = "exact",
+        reuse_factorisation: bool = True,
     ):
         if form not in FORMS:
             raise ValueError(f"form must be one of {FORMS}, got {form!r}")
         if actions not in ACTIONS:
             raise ValueError(f"actions must be one of {ACTIONS}, got {actions!r}")
+        if parameter_derivatives not in PARAMETER_DERIVATIVES:
+            raise ValueError(f"parameter_derivatives must be one of {PARAMETER_DERIVATIVES}, "
+                             f"got {parameter_derivatives!r}")  # fmt: skip
         self.newton_actions = actions == "linearised"
+        self.exact_parameter_derivative = parameter_derivatives == "exact"
+        self.reuse_factorisation = bool(reuse_factorisation)
         self.physics, self.discretisation = physics, discretisation
         self.modes, self.jacobian_method, self.form = modes, jacobian, form
         self._kept: tuple[tuple[float, float], SteadyProblem] | None = None
@@ -110,8 +122,8 @@ class SteadyEquations(codim2.Problem):
         key = (float(p[0]), float(p[1]))
         if self._kept is None or self._kept[0] != key:
             problem = SteadyProblem(self.physics_at(key), self.discretisation, NEWTON_TOLERANCES,
-                                    modes=self.modes,
-                                    jacobian_method=self.jacobian_method)  # fmt: skip
+                                    modes=self.modes, jacobian_method=self.jacobian_method,
+                                    reuse_factorisation=self.reuse_factorisation)  # fmt: skip
             if self._kept is not None:  # its shape's operators and preconditioner
                 problem.adopt(self._kept[1])
             self._kept = (key, problem)
@@ -163,6 +175,23 @@ class SteadyEquations(codim2.Problem):
         J[:n, n:], J[n:, :n] = -g.T, g
         self._last_jacobian = (self._point_key(x, p), J)
         return J
+
+    def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """``G_p`` in ``p = (log chi, lambda)``: the velocity-tension system differentiated in
+        its parameters (:meth:`~vesicle.steady.problem.SteadyProblem.parameter_rates`; two
+        solves with the factorised system of the same point's Jacobian) instead of two or four
+        residuals at moved parameters.  The constraint rows do not depend on ``p``.  With
+        ``parameter_derivatives="differences"`` (the reference) the continuation differences
+        residuals instead.  NaN where the shape cannot be represented or a solve fails."""
+        P = self.problem_at(p)
+        m = x.size - 2
+        out = np.zeros((x.size, 2))
+        try:
+            out[:m] = P.parameter_rates(np.asarray(x[:m], float))
+        except (ShapeError, SolverError, ValueError) as err:
+            log.debug("parameter derivative at p = %s: %s", p, err)
+            return np.full((x.size, 2), np.nan)
+        return out
 
     def newton_action_derivative(self, x, p, q, direction, J=None) -> np.ndarray:
         """``d/dt [J(x + t dx, p + t dp)] q`` for Newton's matrices, without a factorisation.

@@ -34,6 +34,7 @@ from numba import njit
 from scipy.sparse.linalg import LinearOperator, gmres
 
 from vesicle.blas import blas_threads
+from vesicle.solve.krylov import batched_gmres
 from vesicle.solve.solver import FlowResult, SolverError, VelocityTensionSolver, _Counter
 from vesicle.sphere.bases import FullBasis
 from vesicle.sphere.transforms import transform
@@ -98,6 +99,21 @@ class CoupledBlocks:
         t = np.tensordot(coef, self._functions, axes=(0, 0))
         top = self.solver.A_uu(u) + self.apply_us(t[None])[0]
         return top, self.constraint(u[None])[0]
+
+    def apply_batch(self, u: np.ndarray, coef: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`apply` for a batch, ``u`` (B, 3, nt, np) and ``coef`` (B, P): each dense
+        layer-potential matrix read once for the whole batch (the single-vector products are
+        bound by memory traffic).  Needs the assembled layer potentials."""
+        t = np.tensordot(coef, self._functions, axes=(1, 0))
+        top = self.apply_us(t)
+        if self.formulation.lam == 1.0:
+            top += u
+        else:
+            A, diag = self.lp.double_matrix
+            K = (self._coefficient_vectors(u) @ A.T).reshape(u.shape)
+            K += np.einsum("ikab,zbik->zaik", diag, u)
+            top += self.alpha * u - self.c * K
+        return top, self.constraint(u)
 
     def tension(self, coef: np.ndarray) -> np.ndarray:
         """The tension field (nt, np) of band coordinates ``coef`` (P,)."""
@@ -264,14 +280,22 @@ def preconditioned_system_solve(
     r: np.ndarray | None = None,
     rtol: float = 1e-10,
     max_iterations: int = 60,
+    batched: bool = True,
+    iterations: list | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """``A [u; t] = [b_u; r]`` of ``blocks``' shape for a batch of right-hand sides, each by
     GMRES right-preconditioned with the exact inverse of a nearby shape's ``system`` (see
     :func:`preconditioned_solve`, which is this for the shape's own right-hand side).
 
-    Returns ``u`` (B, 3, nt, np) and the tensions' band coordinates (B, P).  Raises
-    :class:`~vesicle.solve.solver.SolverError` if one of them misses ``rtol``."""
-    u, coef, _, converged = _preconditioned(blocks, system, b_u, r, rtol, max_iterations)
+    All right-hand sides iterate in lockstep (``batched``, :mod:`vesicle.solve.krylov`: one
+    product with each dense matrix per iteration for the whole batch) or, the reference, by
+    SciPy's GMRES one after another.  Returns ``u`` (B, 3, nt, np) and the tensions' band
+    coordinates (B, P).  Raises :class:`~vesicle.solve.solver.SolverError` if one of them misses
+    ``rtol``."""
+    u, coef, counts, converged = _preconditioned(blocks, system, b_u, r, rtol, max_iterations,
+                                                 batched)  # fmt: skip
+    if iterations is not None:  # each right-hand side's GMRES iterations, for the caller
+        iterations.extend(c.count for c in counts)
     if not all(converged):
         raise SolverError(
             f"preconditioned GMRES missed rtol {rtol:.0e} in {max_iterations} iterations"
@@ -279,9 +303,11 @@ def preconditioned_system_solve(
     return u, coef
 
 
-def _preconditioned(blocks, system, b_u, r, rtol, max_iterations):
-    """The batched preconditioned GMRES of :func:`preconditioned_system_solve`, with each
-    solve's iteration count and whether it converged."""
+def _preconditioned(blocks, system, b_u, r, rtol, max_iterations, batched=True):
+    """The preconditioned GMRES of :func:`preconditioned_system_solve`, with each solve's
+    iteration count and whether it converged: all right-hand sides in lockstep
+    (:func:`~vesicle.solve.krylov.batched_gmres`, ``batched``) or SciPy's GMRES one after
+    another (the reference)."""
     solver = blocks.solver
     D = solver.scale
     grid = blocks.shape.grid.shape
@@ -296,6 +322,8 @@ def _preconditioned(blocks, system, b_u, r, rtol, max_iterations):
         top, constraint = blocks.apply(u[0], coef[0])
         return np.concatenate([(top * D).ravel(), constraint])
 
+    if batched:
+        return _preconditioned_batch(blocks, system, b_u, r, rtol, max_iterations, D, nu)
     us, coefs, counts, flags = [], [], [], []
     with blas_threads(system.workers):
         for bu, rr in zip(b_u, r, strict=True):
@@ -310,6 +338,29 @@ def _preconditioned(blocks, system, b_u, r, rtol, max_iterations):
             counts.append(counter)
             flags.append(info == 0)
     return np.array(us), np.array(coefs), counts, flags
+
+
+def _preconditioned_batch(blocks, system, b_u, r, rtol, max_iterations, D, nu):
+    """:func:`_preconditioned` for the whole batch at once (same scaled residual space)."""
+    grid = blocks.shape.grid.shape
+
+    def op(Y):  # A P^-1 Y for the rows of Y
+        k = Y.shape[0]
+        u, coef = system.solve_coefficients(Y[:, :nu].reshape(k, 3, *grid) / D, Y[:, nu:])
+        top, constraint = blocks.apply_batch(u, coef)
+        return np.concatenate([(top * D).reshape(k, -1), constraint], axis=1)
+
+    rhs = np.concatenate([(b_u * D).reshape(b_u.shape[0], -1), r], axis=1)
+    with blas_threads(system.workers):
+        out = batched_gmres(op, rhs, rtol, max_iterations)
+        u, coef = system.solve_coefficients(out.x[:, :nu].reshape(-1, 3, *grid) / D,
+                                            out.x[:, nu:])  # fmt: skip
+    counts = []
+    for i in out.iterations:
+        c = _Counter()
+        c.count = int(i)
+        counts.append(c)
+    return u, coef, counts, [bool(f) for f in out.converged]
 
 
 def preconditioned_solve(

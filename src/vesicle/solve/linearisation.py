@@ -154,6 +154,8 @@ def linearised_action(
     preconditioner: FactorisedSystem,
     step: float = LOCAL_STEP,
     rtol: float = 1e-11,
+    max_iterations: int = 60,
+    iterations: list | None = None,
 ) -> np.ndarray:
     """``M v`` for a few vectors ``v`` (columns of ``vectors``, (size, k)) at ``solver.shape``,
     without factorising it: the base solve and the ``k`` linearised solves by GMRES
@@ -165,7 +167,10 @@ def linearised_action(
     ``J`` at a nearby shape is a clean difference (GMRES to ``rtol``, not a factorisation).
     At N = 8 on 32x64 with two vectors it costs the layer potentials' assembly and three
     GMRES solves instead of a factorisation and 25 shape derivatives.  Raises
-    :class:`~vesicle.solve.solver.SolverError` when a solve misses ``rtol``.
+    :class:`~vesicle.solve.solver.SolverError` when a solve misses ``rtol`` in
+    ``max_iterations``; ``iterations`` (a list), if given, receives each solve's count.
+    With ``vectors`` the identity it is the whole Jacobian without a factorisation (the
+    columns solved in one batch: :mod:`vesicle.solve.krylov`).
     """
     vectors = np.asarray(vectors, float)
     if vectors.ndim != 2 or vectors.shape[0] != basis.size:
@@ -174,9 +179,13 @@ def linearised_action(
     blocks = CoupledBlocks(solver)
 
     def solve(b_u, r):
-        return preconditioned_system_solve(blocks, preconditioner, b_u, r, rtol=rtol)[0]
+        return preconditioned_system_solve(blocks, preconditioner, b_u, r, rtol=rtol,
+                                           max_iterations=max_iterations,
+                                           iterations=iterations)[0]  # fmt: skip
 
     b = solver.rhs()
-    u, coef = preconditioned_system_solve(blocks, preconditioner, b[None], None, rtol=rtol)
+    u, coef = preconditioned_system_solve(blocks, preconditioner, b[None], None, rtol=rtol,
+                                          max_iterations=max_iterations,
+                                          iterations=iterations)  # fmt: skip
     u, t = u[0], blocks.tension(coef[0])
     return _columns(solver, blocks, basis, vectors.T, u, t, step, times, solve).T

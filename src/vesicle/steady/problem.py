@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import time
 from concurrent.futures import Executor
 from dataclasses import dataclass
 from functools import cached_property, partial
@@ -23,14 +24,20 @@ from functools import cached_property, partial
 import numpy as np
 
 from vesicle.geometry.surface import Shape
-from vesicle.model.formulation import Formulation
+from vesicle.model.formulation import EIGHT_PI, Formulation
 from vesicle.model.kinematics import constraint_gradients, rate_of_change
 from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
-from vesicle.solve.factorised import FactorisedSystem, preconditioned_solve
+from vesicle.solve.factorised import (
+    CoupledBlocks,
+    FactorisedSystem,
+    preconditioned_solve,
+    preconditioned_system_solve,
+)
 from vesicle.solve.linearisation import linearised_action, linearised_jacobian
 from vesicle.solve.solver import (
     SPHERE_TOLERANCE,
     FlowResult,
+    SolverError,
     VelocityTensionSolver,
     solve_flow,
     with_split,
@@ -52,6 +59,20 @@ log = logging.getLogger(__name__)
 #: solver's 1e-8 (Schur) / 1e-9 (inner), so that Newton's residuals are as clean.
 PRECONDITIONED_RTOL = 1e-10
 
+#: A reused factorisation (``reuse_factorisation``) is given up for a new one when the
+#: Jacobian's GMRES misses 1e-11 in this many iterations; at N = 8 on 32x64 a batch of 25
+#: columns costs about 0.2 s an iteration against 2.2 s a factorisation.
+REUSE_ITERATIONS = 10
+
+#: ... and refreshed at the next Jacobian when one took more than this many.
+REFRESH_ITERATIONS = 6
+
+#: Reuse stops (for this problem and those that adopt its state) once a reused Jacobian took
+#: longer than this fraction of the last factorised one (both measured, the layer potentials'
+#: assembly excluded from both): at N = 4 on 16x32 a factorisation (0.18 s) is cheaper than
+#: the batched GMRES, at N = 8 on 32x64 (2.2 s) it is not.
+REUSE_COST = 0.9
+
 #: Relative finite-difference step of the Jacobian (scaled by ``max(1, |a_00|)``).
 JACOBIAN_STEP = 1e-4
 
@@ -62,12 +83,18 @@ class _Kept:
     factorised system adopted from a problem at another parameter point, used only as a
     preconditioner (:meth:`SteadyProblem.adopt`)."""
 
-    __slots__ = ("operators", "preconditioner", "system")
+    __slots__ = ("factorised_seconds", "operators", "preconditioner", "reuse_cost", "stale",
+                 "system")
 
     def __init__(self) -> None:
         self.operators: tuple | None = None
         self.system: tuple | None = None
         self.preconditioner = None
+        self.stale = False  # the kept system preconditions too slowly: factorise next time
+        # seconds of the last Jacobian on a reused factorisation over those of the last
+        # factorisation: reuse stops where it does not pay (small grids)
+        self.reuse_cost: float | None = None
+        self.factorised_seconds: float | None = None  # the last factorised Jacobian's
 
 
 @dataclass(frozen=True)
@@ -89,6 +116,15 @@ class SteadyProblem:
         Solve shapes near that of the last linearised Jacobian by GMRES preconditioned with its
         factorised system (:func:`vesicle.solve.factorised.preconditioned_solve`; default), else by
         the nested Schur-complement GMRES (the method before).
+    reuse_factorisation : bool
+        A linearised Jacobian at a new shape without a new factorisation: its columns solved
+        together by GMRES preconditioned with the kept (or adopted) factorised system of a
+        nearby shape (:func:`vesicle.solve.linearisation.linearised_action` on the identity), to
+        the same 1e-11 as the solves of Newton's action derivatives.  A factorisation instead
+        where none is kept, where GMRES misses ``1e-11`` in :data:`REUSE_ITERATIONS`, and at the
+        next Jacobian after one that took more than :data:`REFRESH_ITERATIONS` (the kept system
+        has grown too far from the shapes).  Off by default (the factorised Jacobian, exact to
+        rounding); the two-parameter continuation turns it on.
     """
 
     physics: Physics
@@ -97,6 +133,7 @@ class SteadyProblem:
     modes: str = "symmetric"
     jacobian_method: str = "linearised"
     preconditioned: bool = True
+    reuse_factorisation: bool = False
     #: What is kept of the last shape solved (its layer potentials and factorised system): an
     #: explicit one-shape cache, not part of the problem's identity, dropped by :meth:`release`
     kept: _Kept = dataclasses.field(default_factory=lambda: _Kept(), init=False,
@@ -143,6 +180,9 @@ class SteadyProblem:
             other.kept.preconditioner  # fmt: skip
         if system is not None:
             self.kept.preconditioner = system
+            self.kept.stale = other.kept.stale
+        self.kept.reuse_cost = other.kept.reuse_cost
+        self.kept.factorised_seconds = other.kept.factorised_seconds
 
     # ----------------------------------------------------------------- basis
     @cached_property
@@ -258,6 +298,45 @@ class SteadyProblem:
             raise ValueError("no factorised system kept near this shape: compute a Jacobian first")
         shape = self.shape(a)
         return linearised_action(self._solver(shape), self.basis, vectors, system)
+
+    def parameter_rates(self, a: np.ndarray) -> np.ndarray:
+        """``d adot / d (log chi, lam)`` at ``a``, (size, 2), from the velocity-tension system
+        differentiated in its parameters (no finite differences).
+
+        The system ``A(lam) [u; t] = [b(chi); 0]`` has ``b = chi u_inf^(1) - N[f_B]/(8 pi)`` and
+        ``A_uu = (1 + lam)/2 I - (1 - lam)/(8 pi) K``, so ``A [u_chi; t_chi] = [chi u_inf^(1); 0]``
+        and ``A [u_lam; t_lam] = [-(u/2 + K[u]/(8 pi)); 0]``; each column is the rate of change
+        of its velocity.  The solves are exact with the factorised system of this shape (kept
+        by the last Jacobian at ``a``), else by GMRES preconditioned with the kept or adopted
+        one (a factorisation where there is none).  At ``lam = 1`` the double layer, not
+        otherwise needed, is assembled for ``K[u]``."""
+        if self.jacobian_method != "linearised":
+            raise ValueError("parameter_rates needs jacobian_method='linearised'")
+        shape = self.shape(a)
+        solver = self._solver(shape)
+        kept = self.kept.system
+        if kept is not None and kept[0] == self._key(shape):
+            exact = kept[1]
+
+            def solve(b):
+                return exact.solve_coefficients(b)[0]
+        else:
+            near = self.kept.preconditioner if kept is None else kept[1]
+            if near is None:
+                near = self.factorise(shape)
+            blocks = CoupledBlocks(solver)
+
+            def solve(b):
+                return preconditioned_system_solve(blocks, near, b, rtol=PRECONDITIONED_RTOL)[0]
+
+        u = solve(solver.rhs()[None])[0]
+        params = self.physics
+        b_chi = params.flow.velocity(shape.x, params.chi) if params.driven else np.zeros_like(u)
+        b_lam = -(0.5 * u + solver.lp.double_layer(u) / EIGHT_PI)
+        du = solve(np.stack([b_chi, b_lam]))
+        degree = self.basis.degree
+        return np.stack([self.basis.from_coefficients(rate_of_change(shape, d, degree))
+                         for d in du], axis=1)  # fmt: skip
 
     def adot(self, a: np.ndarray, sigma0=None) -> tuple[np.ndarray, FlowResult]:
         """``adot(a)`` and the solve it came from."""
@@ -378,13 +457,59 @@ class SteadyProblem:
         if self.jacobian_method == "linearised":
             shape = self.shape(a)
             if abs(shape.reduced_volume - 1.0) >= SPHERE_TOLERANCE:
+                reused = _reused(self, shape)
+                if reused is not None:
+                    return reused, 0
+                _assembled(self._solver(shape))  # not timed: common to both ways
+                start = time.perf_counter()
                 system = self.factorise(shape)
-                return linearised_jacobian(system.solver, self.basis, system=system).jacobian, 0
+                self.kept.stale = False
+                M = linearised_jacobian(system.solver, self.basis, system=system).jacobian
+                self.kept.factorised_seconds = time.perf_counter() - start
+                return M, 0
             log.info("exact sphere: Jacobian by central differences")
             central = True
         h = JACOBIAN_STEP * max(1.0, abs(a[0]))
         column = partial(_adot_column, self, sigma0=sigma0)
         return finite_difference_jacobian(column, a, h, base, central, executor)
+
+
+def _assembled(solver: VelocityTensionSolver) -> VelocityTensionSolver:
+    """``solver`` with its layer potentials assembled (every kernel it uses)."""
+    _ = solver.lp.single_matrix
+    if solver.formulation.lam != 1.0:
+        _ = solver.lp.double_matrix
+    return solver
+
+
+def _reused(problem: SteadyProblem, shape: Shape) -> np.ndarray | None:
+    """The linearised Jacobian of ``shape`` by GMRES on the kept factorisation
+    (:attr:`SteadyProblem.reuse_factorisation`), or ``None`` where a factorisation is due."""
+    kept = problem.kept
+    if not problem.reuse_factorisation or kept.stale:
+        return None
+    if kept.reuse_cost is not None and kept.reuse_cost > REUSE_COST:
+        return None
+    near = kept.system[1] if kept.system is not None else kept.preconditioner
+    if near is None or (kept.system is not None and kept.system[0] == problem._key(shape)):
+        return None  # nothing to reuse, or the shape's own system: factorised exactly anyway
+    counts: list[int] = []
+    solver = _assembled(problem._solver(shape))
+    start = time.perf_counter()
+    try:
+        M = linearised_action(solver, problem.basis, np.eye(problem.basis.size), near,
+                              max_iterations=REUSE_ITERATIONS, iterations=counts)  # fmt: skip
+    except SolverError as err:
+        log.info("Jacobian on the kept factorisation: %s; factorising", err)
+        kept.stale = True
+        return None
+    seconds = time.perf_counter() - start
+    kept.stale = max(counts) > REFRESH_ITERATIONS
+    if kept.factorised_seconds is not None:  # against a factorised Jacobian's time
+        kept.reuse_cost = seconds / kept.factorised_seconds
+    log.info("Jacobian on the kept factorisation: %d GMRES iterations, %.2f s (%s times a "
+             "factorised one)", max(counts), seconds, kept.reuse_cost)  # fmt: skip
+    return M
 
 
 def _adot_column(problem: SteadyProblem, a: np.ndarray, sigma0=None) -> np.ndarray:
