@@ -105,6 +105,20 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
         ),
         ('[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nlam = [8.0]\n', "unknown key 'lam'"),
         (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
+            'continuation = "arclength"\n',
+            "continuation must be 'codim2' or 'trace'",
+        ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\nxtol = 1e-4\n',
+            "xtol applies to continuation = 'trace' only",
+        ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
+            'continuation = "trace"\nform = "spec"\n',
+            "form applies to continuation = 'codim2' only",
+        ),
+        (
             '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[task]\njacobian = "x"\n',
             "jacobian",
         ),
@@ -355,9 +369,30 @@ def test_a_neutral_point_that_stopped_keeps_its_points_and_counts_as_failed(monk
 
     monkeypatch.setattr(sweep, "neutral_curve", stopped)
     entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12},
-                      {"chi": [1.0, 3.0]}, {})  # fmt: skip
+                      {"chi": [1.0, 3.0], "continuation": "trace"}, {})  # fmt: skip
     assert entry["status"] == "failed" and "before chi = 3: no TT" in entry["error"]
     assert entry["result"]["failed"] == [{"chi": 3.0, "error": "no TT"}]
+
+
+def test_a_neutral_point_is_continued_in_two_parameters_by_default(monkeypatch):
+    """task = "neutral" without ``continuation``: the two-parameter continuation, as
+    ``vesicle neutral``, given the task's options (and not the tracer's); its failures count
+    as the tracer's do."""
+    import vesicle.workflows.sweep as sweep
+    from vesicle.bifurcation.neutral import NeutralCurve
+
+    seen = {}
+
+    def codim2(physics, chi, disc, **options):
+        seen.update(options, chi=list(chi))
+        return NeutralCurve(physics, disc, [], None, [], 0.0, [{"chi": None, "error": "stop"}])
+
+    monkeypatch.setattr(sweep, "neutral_curve_codim2", codim2)
+    monkeypatch.setattr(sweep, "neutral_curve", lambda *a, **k: pytest.fail("traced"))
+    entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12},
+                      {"chi": [1.0, 3.0], "form": "curvature", "modes": "general"}, {})
+    assert seen == {"chi": [1.0, 3.0], "form": "curvature", "modes": "general"}
+    assert entry["status"] == "failed"
 
 
 def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeypatch,
@@ -371,7 +406,7 @@ def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeyp
 
     path = write(tmp_path, '[sweep]\ntask = "neutral"\nout = "n.h5"\n[grid]\nv = [0.95]\n'
                            '[task]\nchi = [0.8, 1.0, 1.5, 2.0]\nlocate_type_change = false\n'
-                           + SMALL)  # fmt: skip
+                           'continuation = "trace"\n' + SMALL)  # fmt: skip
     config = read_sweep_config(path)
     assert config.settings["curves_dir"] == str(tmp_path / "n_curves")
     same = read_sweep_config(write(tmp_path, path.read_text().replace("n.h5", "m.h5"), "m.toml"))

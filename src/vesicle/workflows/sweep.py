@@ -23,17 +23,22 @@ TOML file::
                            #   N = 4 first, the default) for critical; for branch:
                            #   parameter ("lam" | "chi" | "v", not in [grid]) and values
                            #   ("1:9", "1:9:0.5" or a list), past_fold, xtol; for neutral:
-                           #   chi ("0.1:10" with points, or a list), xtol, type_tol,
+                           #   chi ("0.1:10" with points, or a list), continuation
+                           #   ("codim2", the default, as `vesicle neutral`, with form; or
+                           #   "trace": the tracer, with xtol, type_tol and checkpoints),
                            #   locate_type_change; orientation ("flow" | "vorticity": the
                            #   TT branch) for tt, stability (general modes by default on the
                            #   vorticity branch), critical and neutral
 
 A ``branch`` point is a whole branch at the fixed values of its grid point (e.g. one per v and
 chi, continued in lam), a ``neutral`` point a whole neutral curve at its v: sweeps of these run
-whole branches or curves side by side on the workers.  A neutral curve keeps its points and
-their states as they are found in ``STORE_curves/``
-(:class:`vesicle.bifurcation.checkpoint.Checkpoint`),
-and one cut short goes on from them when it is tried again.
+whole branches or curves side by side on the workers.  A neutral curve by two-parameter
+continuation (``continuation = "codim2"``, the default, as ``vesicle neutral``) is stored when
+complete; one by the tracer (``"trace"``) keeps its points and their states as they are found
+in ``STORE_curves/`` (:class:`vesicle.bifurcation.checkpoint.Checkpoint`), and one cut short
+goes on from them when it is tried again.  (A neutral sweep begun before ``continuation``
+existed traced its curves: add ``continuation = "trace"`` to its ``[task]`` to finish it the
+same way.)
 
 Every point is keyed by its parameters (:attr:`vesicle.Physics.key`).  Results come back to the
 process that runs the sweep and are written, one completed point at a time, to the store by an
@@ -67,6 +72,8 @@ from vesicle.bifurcation.branch import PARAMETERS, branch, reach
 from vesicle.bifurcation.checkpoint import Checkpoint
 from vesicle.bifurcation.critical import critical_lambda, critical_summary
 from vesicle.bifurcation.neutral import neutral_curve
+from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
+from vesicle.bifurcation.steady_codim2 import FORMS
 from vesicle.dynamics.integrators import RunParameters
 from vesicle.dynamics.simulation import load_parameters, simulate
 from vesicle.geometry.diagnostics import diagnose, summarize
@@ -159,6 +166,11 @@ def _neutral_chi(options: dict) -> list[float]:
 
 
 def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    if options.get("continuation", "codim2") == "codim2":
+        keys = ("jacobian", "locate_type_change", "orientation", "modes", "form")
+        c = neutral_curve_codim2(physics, _neutral_chi(options), disc,
+                                 **{k: options[k] for k in keys if k in options})  # fmt: skip
+        return c.to_dict()  # written when complete (no checkpoint: see the module notes)
     keys = ("jacobian", "xtol", "type_tol", "locate_type_change", "orientation", "modes")
     kwargs = {k: options[k] for k in keys if k in options}
     known, keep = [], None
@@ -278,7 +290,7 @@ TASKS = {
         _neutral,
         ("v",),
         ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change", "orientation",
-         "modes"),
+         "modes", "continuation", "form"),
         _neutral_incomplete,
     ),
     "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
@@ -290,7 +302,8 @@ _TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
                "values": (str, list), "past_fold": (int,), "chi": (str, list),
                "points": (int,), "type_tol": (int, float),
                "locate_type_change": (bool,), "ellipsoid": (bool,), "psi": (str, list),
-               "lams": (str, list), "orientation": (str,), "coarse": (bool,)}  # fmt: skip
+               "lams": (str, list), "orientation": (str,), "coarse": (bool,),
+               "continuation": (str,), "form": (str,)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
@@ -481,6 +494,19 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
             raise ValueError("[task] points goes with a chi range \"LOW:HIGH\" and must be "
                              "at least 2")  # fmt: skip
         _neutral_chi(options)
+        how = options.get("continuation", "codim2")
+        if how not in ("codim2", "trace"):
+            raise ValueError(f"[task] continuation must be 'codim2' or 'trace', got {how!r}")
+        if how == "codim2":
+            for key in ("xtol", "type_tol"):
+                if key in options:
+                    raise ValueError(f"[task] {key} applies to continuation = 'trace' only "
+                                     "(the two-parameter continuation solves each point to "
+                                     "its own tolerance)")  # fmt: skip
+            if options.get("form", "spec") not in FORMS:
+                raise ValueError(f"[task] form must be one of {FORMS}, got {options['form']!r}")
+        elif "form" in options:
+            raise ValueError("[task] form applies to continuation = 'codim2' only")
     if "jacobian" in options and options["jacobian"] not in ("linearised", "differences"):
         raise ValueError(f"[task] jacobian must be 'linearised' or 'differences', got "
                          f"{options['jacobian']!r}")  # fmt: skip
