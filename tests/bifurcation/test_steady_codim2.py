@@ -110,6 +110,26 @@ def test_the_exact_parameter_derivative_is_the_limit_of_residual_differences(sta
         SteadyEquations(state.physics, TINY, parameter_derivatives="other")
 
 
+def test_a_points_jacobian_is_computed_once(state, monkeypatch):
+    """The Jacobian asked for again at the same (x, p) (a reported point's) comes from the
+    kept ones: equal, a copy (changing it changes nothing kept), no second linearisation."""
+    from vesicle.steady.problem import SteadyProblem
+
+    eq = SteadyEquations(state.physics, TINY)
+    x, p = eq.state(state)
+    J = eq.jacobian(x, p)
+    calls = []
+    original = SteadyProblem.jacobian
+    monkeypatch.setattr(SteadyProblem, "jacobian",
+                        lambda self, *a, **k: calls.append(1) or original(self, *a, **k))
+    again = eq.jacobian(x, p)
+    assert calls == [] and np.array_equal(again, J) and again is not J
+    again[0, 0] += 1.0
+    assert np.array_equal(eq.jacobian(x, p), J)
+    eq.jacobian(x + 1e-6, p)
+    assert calls == [1]
+
+
 def test_the_parameters_are_log_chi_and_lambda(state):
     eq = SteadyEquations(state.physics, TINY)
     _, p = eq.state(state)

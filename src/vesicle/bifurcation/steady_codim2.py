@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
@@ -65,6 +66,10 @@ ACTIONS = ("linearised", "jacobians")
 
 #: Relative step of :meth:`SteadyEquations.newton_action_derivative`'s forward difference.
 ACTION_STEP = 1e-5
+
+#: The Jacobians of the last this many points are kept (a few kB each: 27 x 27 at N = 8 in
+#: the symmetric basis), so that a point's report does not compute its Jacobian again.
+KEPT_JACOBIANS = 256
 
 #: How ``G_p`` is formed: ``"exact"``, the system differentiated in its parameters
 #: (:meth:`SteadyEquations.parameter_derivative`), or ``"differences"`` of residuals (the
@@ -107,6 +112,7 @@ class SteadyEquations(codim2.Problem):
         self.physics, self.discretisation = physics, discretisation
         self.modes, self.jacobian_method, self.form = modes, jacobian, form
         self._kept: tuple[tuple[float, float], SteadyProblem] | None = None
+        self._jacobians: OrderedDict[tuple, np.ndarray] = OrderedDict()
         self._sigma = None
         probe = self.problem_at((math.log(physics.chi), physics.lam))
         self.size = probe.basis.size
@@ -164,6 +170,12 @@ class SteadyEquations(codim2.Problem):
             return np.full((x.size, x.size), np.nan)
 
     def _jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        key = self._point_key(x, p)
+        if key in self._jacobians:  # a point's Jacobian asked for again (its report, a
+            self._jacobians.move_to_end(key)  # located point's neighbour): not recomputed
+            J = self._jacobians[key].copy()
+            self._last_jacobian = (key, J)
+            return J
         P = self.problem_at(p)
         a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
         M, _ = P.jacobian(a, sigma0=self._sigma)
@@ -173,7 +185,10 @@ class SteadyEquations(codim2.Problem):
         J = np.zeros((n + 2, n + 2))
         J[:n, :n] = M - np.einsum("k,kij->ij", mu, H) if self.form == "curvature" else M
         J[:n, n:], J[n:, :n] = -g.T, g
-        self._last_jacobian = (self._point_key(x, p), J)
+        self._last_jacobian = (key, J)
+        self._jacobians[key] = J.copy()
+        while len(self._jacobians) > KEPT_JACOBIANS:
+            self._jacobians.popitem(last=False)
         return J
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
