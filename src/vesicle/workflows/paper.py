@@ -403,9 +403,12 @@ def _period_checks(folder: Path, hopf, grid: int, degree: int) -> tuple[list[dic
                                     f"fitted ({free['lambda_c']:.4g})", PAPER_PERIOD_EXPONENT,
                                     free["p"]))  # fmt: skip
     branch = folder.parent / "fig8" / f"branch_N{degree}_{grid}.json"
-    folds = ([s for s in json.loads(branch.read_text())["special_points"]
-              if s["type"] in ("saddle-node", "fold")] if branch.exists() else [])  # fmt: skip
+    stored = json.loads(branch.read_text()) if branch.exists() else {}
+    folds = [s for s in stored.get("special_points", []) if s["type"] in ("saddle-node", "fold")]
     located = [s for s in folds if s.get("located", True)]  # not the square-root law's estimate
+    turning = stored.get("located_folds", {}).get("curvature")
+    if turning is not None and turning["located"]:  # the turning point solved for (fig8)
+        located = [{"lam": turning["lam"]}]
     fixed = period_fit(lams, periods, lambda_c=located[0]["lam"]) if located else None
     if fixed is not None:
         comparisons.append(_compare("chi = 0.2: exponent p, lam_c at the fold of fig8's branch "
@@ -459,14 +462,44 @@ def _fig8_branch(path: str, grid: int, degree: int) -> None:
     write_text_atomically(path, json.dumps(data))
 
 
+def _fig8_folds(path: str, grid: int, degree: int) -> None:
+    """The chi = 0.2 fold solved for on its augmented system (two-parameter continuation's
+    ``locate_fold``, lam free) in both forms, from the branch's last stable state, added to the
+    branch file as ``located_folds``: ``spec`` (SPEC §9's operator singular: where the
+    branch's own growth rates reach zero) and ``curvature`` (the Newton matrix singular: the
+    branch's turning point)."""
+    from vesicle.bifurcation import codim2
+    from vesicle.bifurcation.branch import reach
+    from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS
+    from vesicle.bifurcation.steady_codim2 import SteadyEquations
+    from vesicle.model.parameters import Discretisation, Physics
+
+    data = json.loads(Path(path).read_text())
+    stable = [p for p in data["points"] if p["n_unstable"] == 0]
+    folds = {}
+    if stable:
+        disc = Discretisation(grid, degree)
+        state = reach(Physics(v=0.95, chi=0.2, lam=max(p["lam"] for p in stable)), disc)
+        for form in ("spec", "curvature"):
+            eq = SteadyEquations(state.physics, disc, form=form)
+            x, p = eq.state(state)
+            f = codim2.locate_fold(eq, x, p, free=1, settings=DEFAULT_SETTINGS)
+            folds[form] = {"lam": float(f.p[1]), "located": bool(f.converged),
+                           "residual": float(f.residual)}  # fmt: skip
+    write_text_atomically(path, json.dumps({**data, "located_folds": folds}))
+
+
 def _fig8(folder: Path, quick: bool, options: dict) -> dict:
     """The leading eigenvalues along the chi = 0.2 branch as lam approaches the fold."""
+    from vesicle.bifurcation.branch import approach_exponent
     from vesicle.plots.branch import fold_approach, plot_branch
 
     grid, degree = _resolution(quick)
     path = folder / f"branch_N{degree}_{grid}.json"
     if not path.exists():
         _map(options, _fig8_branch, [(str(path), grid, degree)])
+    if "located_folds" not in json.loads(path.read_text()):  # (a file of an earlier version)
+        _map(options, _fig8_folds, [(str(path), grid, degree)])
     data = json.loads(path.read_text())
     figures = [str(p) for p in plot_branch(data, folder)]
     fit = fold_approach(data)
@@ -484,6 +517,22 @@ def _fig8(folder: Path, quick: bool, options: dict) -> dict:
             comparisons.append(_check(
                 f"the same exponent with the fold fitted too (at {fit['free']['critical']:.6g})",
                 "saddle-node normal form", 0.5, fit["free"]["exponent"]))  # fmt: skip
+    for form, what in (("spec", "SPEC §9's operator singular"),
+                       ("curvature", "the branch's turning point")):  # fmt: skip
+        fold = data.get("located_folds", {}).get(form)
+        if fold is None:
+            continue
+        lam_f = fold["lam"]
+        near = [p for p in data["points"] if p["n_unstable"] == 0 and p["omega_I"] < 0
+                and abs(p["omega_R"]) <= 1e-9 and 0 < lam_f - p["lam"] <= 0.1 * lam_f]
+        if len(near) < 2:
+            continue
+        e = approach_exponent([p["lam"] for p in near], [p["omega_I"] for p in near], lam_f)
+        comparisons.append(_check(
+            f"exponent of omega_I -> 0 at the fold solved for ({what}, lam = {lam_f:.6g}, "
+            f"{len(near)} points)", "saddle-node normal form", 0.5, e["exponent"],
+            located=fold["located"],
+            note="" if fold["located"] else "the fold's system did not converge"))  # fmt: skip
     specials = "; ".join(f"{sp['type']} at lam = {sp['lam']:.6g} ("
                          + ("located" if sp.get("located", True) else
                             "an estimate from the square-root law, not located") + ")"
