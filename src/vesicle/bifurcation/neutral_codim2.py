@@ -18,14 +18,18 @@ How
 1. **A seed** at the requested ``chi`` nearest 1 (the largest for the vorticity branch): the
    bracketing search :func:`vesicle.bifurcation.critical.critical_lambda` gives a stable
    state just below ``lambda_c``, and the Hopf (or fold) point is solved for from it on its
-   augmented system.  Where the bracket fails (a fold it cannot see) the branch is stepped in
+   augmented system.  Finer than N = 4 on 16x32 the search runs at that coarse resolution
+   only, its state is continued to the full one and the point solved for there from the
+   coarse ``lambda_c`` (:func:`_coarse_seed`; the full search where that fails).
+   Where the bracket fails (a fold it cannot see) the branch is stepped in
    ``lambda`` from a stable state to the first loss of stability (:func:`_first_loss`).
 2. **Its curve continued** both ways in ``chi`` by pseudo-arclength
    (:func:`vesicle.bifurcation.codim2.hopf_curve` / ``fold_curve``), with its Bogdanov–Takens
    and cusp points located on the way; from a BT point with no other unstable eigenvalue the
    other curve is continued too (the switch at BT).
 3. **Coverage**: a requested ``chi`` with no candidate yet (below a BT point where the Hopf
-   curve ends) gets a new seed by :func:`_first_loss` there, and its curve is continued (at
+   curve ends) gets a new seed by :func:`_first_loss` there (stepped at N = 4 on 16x32 first
+   at finer resolutions: :func:`_coarse_first_loss`), and its curve is continued (at
    v = 0.95: the lower sheet's fold curve, up to its cusp).
 4. **The type change** where the winning candidate changes kind, located on the augmented
    systems (:func:`.steady_codim2.locate_type_change`), or at a BT point where the curves
@@ -54,7 +58,11 @@ import numpy as np
 
 from vesicle.bifurcation import codim2
 from vesicle.bifurcation.branch import reach
-from vesicle.bifurcation.critical import critical_lambda, vorticity_start_lambda
+from vesicle.bifurcation.critical import (
+    _coarse_discretisation,
+    critical_lambda,
+    vorticity_start_lambda,
+)
 from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint, curve_inputs
 from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_change
 from vesicle.geometry.diagnostics import diagnose
@@ -109,6 +117,10 @@ OFF_BOUNDARY = 3
 #: A fold curve is given up once its chi has turned back by this much in log chi (its
 #: cusp passed: the points found are kept).
 TURNED_BACK = 0.05
+
+#: A seed solved for from the coarse lambda_c (:func:`_coarse_seed`) is kept only within
+#: this relative distance of it (N = 4's lambda_c lies 1-8 % below N = 8's).
+COARSE_SEED_GAP = 0.15
 
 #: A requested chi this close (relative) to a curve's end counts as covered by it.
 _COVER = 1e-9
@@ -243,8 +255,13 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
         if not lo <= lam <= hi:
             raise NewtonError(f"no stable steady state at chi = {chi:.4g} for lam in "
                               f"[{lo:g}, {hi:g}]")  # fmt: skip
-        state = reach(ctx.at(chi, lam), ctx.disc, orientation=ctx.orientation,
-                      jacobian=ctx.jacobian)  # fmt: skip
+        try:  # the same branch, continued from the last state (one Newton solve)
+            state = steady_tank_treading(ctx.at(chi, lam), ctx.disc, initial=state,
+                                         orientation=ctx.orientation,
+                                         jacobian=ctx.jacobian)  # fmt: skip
+        except _FAILURES:  # (a fold on the way down): reached afresh, as the first state was
+            state = reach(ctx.at(chi, lam), ctx.disc, orientation=ctx.orientation,
+                          jacobian=ctx.jacobian)  # fmt: skip
         growth, freq = _leading(state, ctx.modes)
     ratio = LOSS_STEP**side
     last: tuple[float, float] | None = None  # the previous state's (lam, growth)
@@ -293,6 +310,56 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
         state, growth, freq = nxt, g2, f2
 
 
+def _loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
+    """:func:`_first_loss`, found at the coarse resolution first where that works
+    (:func:`_coarse_first_loss`)."""
+    point = _coarse_first_loss(ctx, chi, lam0)
+    return point if point is not None else _first_loss(ctx, chi, lam0)
+
+
+def _coarse_first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint | None:
+    """The first loss of stability at ``chi`` stepped for at N = 4 on 16x32 (finer
+    resolutions only), then its state continued to this resolution at the coarse critical
+    lambda (one Newton solve) and the point solved for there on its augmented system.  ``None``
+    where that fails or lands farther than :data:`COARSE_SEED_GAP` from the coarse point, or on
+    a point with another unstable eigenvalue: then :func:`_first_loss` steps at full
+    resolution (at v = 0.90, N = 8, chi = 0.1: about 5 min, most of it reaching a first state
+    from the default start)."""
+    coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
+    if coarse is None:
+        return None
+    try:
+        ceq = SteadyEquations(ctx.physics.replace(chi=chi, lam=lam0), coarse, modes=ctx.modes,
+                              jacobian=ctx.jacobian, form=ctx.eq.form)  # fmt: skip
+        q = _first_loss(replace(ctx, disc=coarse, eq=ceq,
+                                say=lambda d: ctx.say({"coarse": d})), chi, lam0)  # fmt: skip
+        if not q.converged:
+            return None
+        shape = ceq.problem_at(q.p).shape(q.x[:-2])
+        state = steady_tank_treading(ctx.at(chi, float(q.p[1])), ctx.disc, initial=shape,
+                                     orientation=ctx.orientation,
+                                     jacobian=ctx.jacobian)  # fmt: skip
+        x, _ = ctx.eq.state(state)
+        p = np.array([math.log(chi), float(q.p[1])])
+        if q.kind == "hopf":
+            point = codim2.locate_hopf(ctx.eq, x, p, free=1, omega=q.omega,
+                                       settings=ctx.settings)  # fmt: skip
+        else:
+            point = codim2.locate_fold(ctx.eq, x, p, free=1, settings=ctx.settings)
+    except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+        log.info("coarse first loss at chi = %.4g: %s", chi, err)
+        return None
+    near = abs(point.p[1] - q.p[1]) <= COARSE_SEED_GAP * q.p[1]
+    if not (point.converged and near and not point.other_unstable):
+        log.info("coarse first loss at chi = %.4g refused (converged %s, lam %.5g against the "
+                 "coarse %.5g, other unstable %s)", chi, point.converged, point.p[1], q.p[1],
+                 point.other_unstable)  # fmt: skip
+        return None
+    ctx.say({"chi": chi, "first_loss": point.kind, "from_coarse": float(q.p[1]),
+             "lam": float(point.p[1])})  # fmt: skip
+    return point
+
+
 def _fold_ahead(ctx, chi, state, growth, freq, last, ratio) -> codim2.CurvePoint | None:
     """The fold solved for directly when the leading eigenvalue is real and its square,
     extrapolated linearly in lambda from the last two states (the square-root law of a fold),
@@ -316,8 +383,54 @@ def _fold_ahead(ctx, chi, state, growth, freq, last, ratio) -> codim2.CurvePoint
     return None
 
 
+def _coarse_seed(ctx: _Context, chi: float) -> codim2.CurvePoint | None:
+    """The seed from the coarse search alone (finer resolutions than ``critical.COARSE``):
+    lambda_c at N = 4 on 16x32, its nearest stable state continued to this resolution (one
+    Newton solve), and the critical point solved for on its augmented system from there, the
+    coarse lambda_c and frequency as its start.  ``None`` where any of that fails, where the
+    point has another unstable eigenvalue or lies more than :data:`COARSE_SEED_GAP` from the
+    coarse lambda_c (then the full-resolution search seeds).  Saves that search's
+    bracketing and Brent evaluations at full resolution (at v = 0.90, N = 8: 325 s)."""
+    coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
+    if coarse is None:
+        return None
+    try:
+        c = critical_lambda(ctx.at(chi, 1.0), coarse, modes=ctx.modes, coarse=None,
+                            orientation=ctx.orientation, jacobian=ctx.jacobian)  # fmt: skip
+        stable = [(lam, s) for (lam, _, w_i), s in zip(c.history, c.states, strict=True)
+                  if w_i < 0]  # fmt: skip
+        if not stable:
+            return None
+        _, start = min(stable, key=lambda q: abs(q[0] - c.lambda_c))
+        state = steady_tank_treading(start.physics, ctx.disc, initial=start,
+                                     orientation=ctx.orientation,
+                                     jacobian=ctx.jacobian)  # fmt: skip
+        x, _ = ctx.eq.state(state)
+        p = np.array([math.log(chi), c.lambda_c])
+        if c.omega_R > 1e-6:
+            point = codim2.locate_hopf(ctx.eq, x, p, free=1, omega=c.omega_R,
+                                       settings=ctx.settings)  # fmt: skip
+        else:
+            point = codim2.locate_fold(ctx.eq, x, p, free=1, settings=ctx.settings)
+    except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+        log.info("coarse seed at chi = %.4g: %s", chi, err)
+        return None
+    near = abs(point.p[1] - c.lambda_c) <= COARSE_SEED_GAP * c.lambda_c
+    if not (point.converged and near and not point.other_unstable):
+        log.info("coarse seed at chi = %.4g refused (converged %s, lam %.5g against the coarse "
+                 "%.5g, other unstable %s)", chi, point.converged, point.p[1], c.lambda_c,
+                 point.other_unstable)  # fmt: skip
+        return None
+    ctx.say({"seed_from": f"lambda_c = {c.lambda_c:.5g} at N = {coarse.degree} on "
+                          f"{coarse.grid}x{2 * coarse.grid}"})  # fmt: skip
+    return point
+
+
 def _seed(ctx: _Context, chi: float) -> codim2.CurvePoint:
     """The first critical point of the trace, at ``chi`` (see the module docstring)."""
+    point = _coarse_seed(ctx, chi)
+    if point is not None:
+        return point
     try:
         c = critical_lambda(ctx.at(chi, 1.0), ctx.disc, modes=ctx.modes,
                             orientation=ctx.orientation, jacobian=ctx.jacobian)  # fmt: skip
@@ -672,7 +785,7 @@ def neutral_curve_codim2(
             break
         tried.add(c)
         try:
-            point = _first_loss(ctx, c, _start_lambda(ctx, c))
+            point = _loss(ctx, c, _start_lambda(ctx, c))
         except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
             failed.append({"chi": c, "error": f"no critical point: {err}"})
             log.warning("neutral curve: no critical point at chi = %.4g: %s", c, err)
