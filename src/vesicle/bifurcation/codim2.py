@@ -388,8 +388,11 @@ class _Evaluator:
     def step_action(self, x: np.ndarray, p: np.ndarray, q: np.ndarray, direction: np.ndarray):
         """``F_xz(q, direction)`` for a Newton matrix: the problem's hook, else central or
         forward differences of ``J`` (forward: one Jacobian, reusing ``J`` at the base);
-        the problem's ``newton_action_derivative`` before all of them where it has one."""
-        if self.own_newton_action:
+        the problem's ``newton_action_derivative`` before all of them where it has one, except
+        once a corrector has turned to central differences (``Settings.central_after``) and
+        the problem has its own accurate ``jacobian_action_derivative``: then that one (next
+        to a cusp Newton stalls on the approximate derivative)."""
+        if self.own_newton_action and not (self.differences == "central" and self.own_action):
             self.counts[3] += 1
             bx, bp, _, J = self.base
             same = bx is not None and np.array_equal(bx, x) and np.array_equal(bp, p)

@@ -122,6 +122,10 @@ TURNED_BACK = 0.05
 #: this relative distance of it (N = 4's lambda_c lies 1-8 % below N = 8's).
 COARSE_SEED_GAP = 0.15
 
+#: A point this close in log chi to the outermost requested chi has landed on it (a landing
+#: solve holds log chi exactly).
+_EDGE = 1e-12
+
 #: A requested chi this close (relative) to a curve's end counts as covered by it.
 _COVER = 1e-9
 
@@ -473,7 +477,12 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
     start_point = start.point if from_bt else start
     if from_bt:
         ctx.visited_bt.add(tuple(np.round(start.point.p, 6)))
+    lowest, highest = (min(ctx.landing), max(ctx.landing)) if ctx.landing else (None, None)
     for d in directions[:1] if from_bt and kind == "hopf" else directions:
+        p0 = float(start_point.p[0])
+        if not from_bt and lowest is not None and \
+                ((d[0] < 0 and p0 <= lowest + _EDGE) or (d[0] > 0 and p0 >= highest - _EDGE)):
+            continue  # seeded at the outermost requested chi: nothing to report that way
         ctx.say({"curve": kind, "direction": "up" if d[0] > 0 else "down"})
 
         # off-boundary points in a row; the start's log chi; the farthest reached (times the
@@ -498,6 +507,11 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
                 run[2] = run[3] * run[1]
             way = run[3]
             run[2] = max(run[2], way * point.p[0])  # the farthest reached that way
+            if lowest is not None and ((way > 0 and point.p[0] >= highest - _EDGE) or
+                                       (way < 0 and point.p[0] <= lowest + _EDGE)):  # fmt: skip
+                return True  # landed on the outermost requested chi: nothing beyond is reported
+            if kind == "fold" and any(sp.kind == "cusp" and sp.located for sp in special):
+                return True  # past its located cusp (as TURNED_BACK below, sooner)
             return kind == "fold" and way * point.p[0] < run[2] - TURNED_BACK
 
         curve = trace(ctx.eq, start, direction=d, bounds=ctx.bounds, max_points=ctx.max_points,

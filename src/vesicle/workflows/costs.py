@@ -177,9 +177,9 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
     # the same section: the first complete N = 8 curve (2026-12-06, alone, /usr/bin/time).
     "neutral_codim2_n8": Cost(
         command="vesicle neutral --v 0.95 --chi 0.1:10 --points 13 --degree 8 --grid 32",
-        figure="34 min",
+        figure="24 min",
         resolution="N = 8 on 32x64, v = 0.95 (BT point, type change and 13 located points)",
-        measured="2009 s",
+        measured="1454 s",
         when="2026-12-06, alone",
         source="docs/notes/codim2-measurements.md",
     ),
