@@ -107,3 +107,25 @@ def test_the_curve_near_the_type_change_is_located_at_v095_n4():
     bt = [q for q in curve.bt_points if q["located"]]
     assert bt and all(abs(complex(*z)) < 1e-3 for z in bt[0]["smallest_eigenvalues"])
     assert t["chi"] == pytest.approx(0.256642, abs=2e-5)
+
+
+@pytest.mark.slow
+def test_above_the_coarse_resolution_the_seed_comes_from_the_coarse_search():
+    """N = 5 on 18x36 (finer than N = 4 on 16x32): the seed at chi = 3 is solved for from the
+    coarse search's lambda_c (the progress says so), located on the N = 5 augmented system,
+    and equals, to that search's 1e-3, the lambda_c of the bracketing search at N = 5 itself
+    (critical_lambda without its coarse start: the independent way); a curve seeded on the
+    only requested chi is not continued, the seed is its point.  Measured: 8.575964 against
+    the search's 8.575974 (N = 4's 8.575966: at chi = 3 the two resolutions nearly agree, so
+    this checks the path and the agreement, not the refinement's size)."""
+    physics = vs.Physics(v=0.95, chi=3.0)
+    disc = vs.Discretisation(grid=18, degree=5)
+    said = []
+    c = neutral_curve_codim2(physics, [3.0], disc, locate_type_change=False,
+                             progress=said.append)  # fmt: skip
+    assert any("seed_from" in d for d in said)
+    assert not any("direction" in d for d in said)
+    (point,) = c.points
+    assert point.located and point.bifurcation == "hopf"
+    full = vs.critical_lambda(physics.replace(lam=1.0), disc, coarse=None)
+    assert point.lambda_c == pytest.approx(full.lambda_c, abs=2e-3)

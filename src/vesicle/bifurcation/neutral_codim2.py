@@ -323,12 +323,9 @@ def _loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
 
 def _coarse_first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint | None:
     """The first loss of stability at ``chi`` stepped for at N = 4 on 16x32 (finer
-    resolutions only), then its state continued to this resolution at the coarse critical
-    lambda (one Newton solve) and the point solved for there on its augmented system.  ``None``
-    where that fails or lands farther than :data:`COARSE_SEED_GAP` from the coarse point, or on
-    a point with another unstable eigenvalue: then :func:`_first_loss` steps at full
-    resolution (at v = 0.90, N = 8, chi = 0.1: about 5 min, most of it reaching a first state
-    from the default start)."""
+    resolutions only), then solved for at this one from there (:func:`_refined`).  ``None``
+    where that fails: then :func:`_first_loss` steps at full resolution (at v = 0.90, N = 8,
+    chi = 0.1: about 5 min, most of it reaching a first state from the default start)."""
     coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
     if coarse is None:
         return None
@@ -340,27 +337,44 @@ def _coarse_first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePo
         if not q.converged:
             return None
         shape = ceq.problem_at(q.p).shape(q.x[:-2])
-        state = steady_tank_treading(ctx.at(chi, float(q.p[1])), ctx.disc, initial=shape,
-                                     orientation=ctx.orientation,
-                                     jacobian=ctx.jacobian)  # fmt: skip
-        x, _ = ctx.eq.state(state)
-        p = np.array([math.log(chi), float(q.p[1])])
-        if q.kind == "hopf":
-            point = codim2.locate_hopf(ctx.eq, x, p, free=1, omega=q.omega,
-                                       settings=ctx.settings)  # fmt: skip
-        else:
-            point = codim2.locate_fold(ctx.eq, x, p, free=1, settings=ctx.settings)
     except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
         log.info("coarse first loss at chi = %.4g: %s", chi, err)
         return None
-    near = abs(point.p[1] - q.p[1]) <= COARSE_SEED_GAP * q.p[1]
+    lam = float(q.p[1])
+    point = _refined(ctx, chi, shape, lam, lam, q.omega if q.kind == "hopf" else None,
+                     "coarse first loss")  # fmt: skip
+    if point is not None:
+        ctx.say({"chi": chi, "first_loss": point.kind, "from_coarse": lam,
+                 "lam": float(point.p[1])})  # fmt: skip
+    return point
+
+
+def _refined(ctx: _Context, chi: float, initial, lam_state: float, lam_c: float,
+             omega: float | None, what: str) -> codim2.CurvePoint | None:  # fmt: skip
+    """The critical point at ``chi`` at full resolution from a coarse one: the steady state
+    at ``lam_state`` by Newton from ``initial`` (a coarser state or shape), then the Hopf
+    (``omega`` given) or fold point solved for from it with ``lam_c`` as its start.  ``None``
+    where that fails, or where the point has another unstable eigenvalue or lies more than
+    :data:`COARSE_SEED_GAP` from ``lam_c`` (logged, with ``what``)."""
+    try:
+        state = steady_tank_treading(ctx.at(chi, lam_state), ctx.disc, initial=initial,
+                                     orientation=ctx.orientation,
+                                     jacobian=ctx.jacobian)  # fmt: skip
+        x, _ = ctx.eq.state(state)
+        p = np.array([math.log(chi), lam_c])
+        if omega is not None:
+            point = codim2.locate_hopf(ctx.eq, x, p, free=1, omega=omega, settings=ctx.settings)
+        else:
+            point = codim2.locate_fold(ctx.eq, x, p, free=1, settings=ctx.settings)
+    except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+        log.info("%s at chi = %.4g: %s", what, chi, err)
+        return None
+    near = abs(point.p[1] - lam_c) <= COARSE_SEED_GAP * lam_c
     if not (point.converged and near and not point.other_unstable):
-        log.info("coarse first loss at chi = %.4g refused (converged %s, lam %.5g against the "
-                 "coarse %.5g, other unstable %s)", chi, point.converged, point.p[1], q.p[1],
+        log.info("%s at chi = %.4g refused (converged %s, lam %.5g against the coarse %.5g, "
+                 "other unstable %s)", what, chi, point.converged, point.p[1], lam_c,
                  point.other_unstable)  # fmt: skip
         return None
-    ctx.say({"chi": chi, "first_loss": point.kind, "from_coarse": float(q.p[1]),
-             "lam": float(point.p[1])})  # fmt: skip
     return point
 
 
@@ -389,44 +403,29 @@ def _fold_ahead(ctx, chi, state, growth, freq, last, ratio) -> codim2.CurvePoint
 
 def _coarse_seed(ctx: _Context, chi: float) -> codim2.CurvePoint | None:
     """The seed from the coarse search alone (finer resolutions than ``critical.COARSE``):
-    lambda_c at N = 4 on 16x32, its nearest stable state continued to this resolution (one
-    Newton solve), and the critical point solved for on its augmented system from there, the
-    coarse lambda_c and frequency as its start.  ``None`` where any of that fails, where the
-    point has another unstable eigenvalue or lies more than :data:`COARSE_SEED_GAP` from the
-    coarse lambda_c (then the full-resolution search seeds).  Saves that search's
-    bracketing and Brent evaluations at full resolution (at v = 0.90, N = 8: 325 s)."""
+    lambda_c at N = 4 on 16x32, then the point solved for at this resolution from the coarse
+    search's stable state nearest it (:func:`_refined`).  ``None`` where that fails (then the
+    full-resolution search seeds).  Saves that search's bracketing and Brent evaluations at
+    full resolution (at v = 0.90, N = 8: 325 s)."""
     coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
     if coarse is None:
         return None
     try:
         c = critical_lambda(ctx.at(chi, 1.0), coarse, modes=ctx.modes, coarse=None,
                             orientation=ctx.orientation, jacobian=ctx.jacobian)  # fmt: skip
-        stable = [(lam, s) for (lam, _, w_i), s in zip(c.history, c.states, strict=True)
-                  if w_i < 0]  # fmt: skip
-        if not stable:
-            return None
-        _, start = min(stable, key=lambda q: abs(q[0] - c.lambda_c))
-        state = steady_tank_treading(start.physics, ctx.disc, initial=start,
-                                     orientation=ctx.orientation,
-                                     jacobian=ctx.jacobian)  # fmt: skip
-        x, _ = ctx.eq.state(state)
-        p = np.array([math.log(chi), c.lambda_c])
-        if c.omega_R > 1e-6:
-            point = codim2.locate_hopf(ctx.eq, x, p, free=1, omega=c.omega_R,
-                                       settings=ctx.settings)  # fmt: skip
-        else:
-            point = codim2.locate_fold(ctx.eq, x, p, free=1, settings=ctx.settings)
     except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
         log.info("coarse seed at chi = %.4g: %s", chi, err)
         return None
-    near = abs(point.p[1] - c.lambda_c) <= COARSE_SEED_GAP * c.lambda_c
-    if not (point.converged and near and not point.other_unstable):
-        log.info("coarse seed at chi = %.4g refused (converged %s, lam %.5g against the coarse "
-                 "%.5g, other unstable %s)", chi, point.converged, point.p[1], c.lambda_c,
-                 point.other_unstable)  # fmt: skip
+    stable = [(lam, s) for (lam, _, w_i), s in zip(c.history, c.states, strict=True)
+              if w_i < 0]  # fmt: skip
+    if not stable:
         return None
-    ctx.say({"seed_from": f"lambda_c = {c.lambda_c:.5g} at N = {coarse.degree} on "
-                          f"{coarse.grid}x{2 * coarse.grid}"})  # fmt: skip
+    _, start = min(stable, key=lambda q: abs(q[0] - c.lambda_c))
+    point = _refined(ctx, chi, start, start.physics.lam, c.lambda_c,
+                     c.omega_R if c.omega_R > 1e-6 else None, "coarse seed")  # fmt: skip
+    if point is not None:
+        ctx.say({"seed_from": f"lambda_c = {c.lambda_c:.5g} at N = {coarse.degree} on "
+                              f"{coarse.grid}x{2 * coarse.grid}"})  # fmt: skip
     return point
 
 
@@ -482,14 +481,19 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
         p0 = float(start_point.p[0])
         if not from_bt and lowest is not None and \
                 ((d[0] < 0 and p0 <= lowest + _EDGE) or (d[0] > 0 and p0 >= highest - _EDGE)):
-            continue  # seeded at the outermost requested chi: nothing to report that way
+            # seeded at the outermost requested chi: nothing to report that way (the seed
+            # itself is a curve of one point)
+            ctx.curves.append(_Curve(kind, codim2.Curve(kind, "minaug", (start_point,), (),
+                                                        "edge", codim2.Evaluations())))
+            continue
         ctx.say({"curve": kind, "direction": "up" if d[0] > 0 else "down"})
 
         # off-boundary points in a row; the start's log chi; the farthest reached (times the
         # way the curve goes, appended after its first step)
         run = [0, float(start_point.p[0]), 0.0]
+        omegas = [float(start_point.omega)]  # the Hopf frequency along the curve
 
-        def stop(point, special, kind=kind, run=run):
+        def stop(point, special, kind=kind, run=run, omegas=omegas):
             # a curve that is not a stability boundary (another eigenvalue unstable on
             # OFF_BOUNDARY points in a row); a fold curve whose chi has turned back (past its
             # cusp: the S's other fold lies below the first, never the edge of the stable
@@ -507,9 +511,15 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
                 run[2] = run[3] * run[1]
             way = run[3]
             run[2] = max(run[2], way * point.p[0])  # the farthest reached that way
-            if lowest is not None and ((way > 0 and point.p[0] >= highest - _EDGE) or
-                                       (way < 0 and point.p[0] <= lowest + _EDGE)):  # fmt: skip
-                return True  # landed on the outermost requested chi: nothing beyond is reported
+            # landed on the outermost requested chi: nothing beyond is reported, except a BT
+            # point that a Hopf curve whose frequency falls is heading for (it is located on
+            # the way to omega = 0, a little past the range's margin)
+            closing = kind == "hopf" and point.omega < omegas[-1]
+            omegas.append(point.omega)
+            if not closing and lowest is not None and \
+                    ((way > 0 and point.p[0] >= highest - _EDGE) or
+                     (way < 0 and point.p[0] <= lowest + _EDGE)):  # fmt: skip
+                return True
             if kind == "fold" and any(sp.kind == "cusp" and sp.located for sp in special):
                 return True  # past its located cusp (as TURNED_BACK below, sooner)
             return kind == "fold" and way * point.p[0] < run[2] - TURNED_BACK

@@ -118,7 +118,7 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         command="OPENBLAS_NUM_THREADS=1 python -m pytest -q",
         figure="about 11 min",
         resolution="the default selection (slow tests deselected)",
-        measured="11 min 4 s for 844 tests",
+        measured="10 min 21 s for 861 tests",
         when="2026-12-06: a fresh clone and virtual environment, alone on the 2-core machine "
              "(pytest's own clock)",
         source="docs/notes/codim2-measurements.md",
@@ -168,9 +168,9 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
     # machine, /usr/bin/time; 364 s before Newton's actions came from the linearisation).
     "neutral_codim2_13": Cost(
         command="vesicle neutral --v 0.95 --chi 0.1:10 --points 13 --degree 4 --grid 16",
-        figure="4 min",
+        figure="3 min",
         resolution="N = 4 on 16x32, v = 0.95 (BT point, type change and 13 located points)",
-        measured="236 s",
+        measured="202 s",
         when="2026-12-06, alone",
         source="docs/notes/codim2-measurements.md",
     ),
