@@ -147,6 +147,33 @@ class Cusp(Mixed):
         )
 
 
+class Turn(Mixed):
+    """``p0 + p1^2 + x0^2`` driving stable ``x1, x2``: fold curve ``x0 = 0, p0 = -p1^2``, a
+    smooth curve whose ``p0`` has its maximum at the origin: a turn, not a cusp (the cusp
+    coefficient is 1 all along)."""
+
+    def __init__(self, seed=5):
+        super().__init__(seed)
+
+    def f(self, x, p):
+        return np.array(
+            [
+                p[0] + p[1] ** 2 + x[0] ** 2,
+                -x[1] + x[0] * p[1],
+                -2 * x[2] + x[0] * x[1],
+            ]
+        )
+
+    def jac(self, x, p):
+        return np.array(
+            [
+                [2 * x[0], 0, 0],
+                [p[1], -1, 0],
+                [x[1], x[0], -2.0],
+            ]
+        )
+
+
 class BogdanovTakens(Mixed):
     """``x0' = x1, x1' = b0 + b1 x0 + x0^2 + s x0 x1 + e b1^2 x1`` and a stable ``x2``.
 
@@ -396,6 +423,34 @@ def test_cusp_is_gone_around_and_located():
     assert np.all(np.abs(problem.to_x(cusp.point.x)) < EXACT)
     assert abs(cusp.test) < 1e-10 and cusp.residual < 1e-10
     assert np.sign(curve.points[0].tests["cusp"]) != np.sign(curve.points[-1].tests["cusp"])
+
+
+def test_a_smooth_turn_of_p0_is_located_and_a_cusp_is_not_taken_for_one():
+    """The fold curve ``p0 = -p1^2`` (exact) through its maximum in ``p0`` at the origin: one
+    special point ``turn``, located there (``p0`` to 1e-8), where the curve's unit tangent has
+    no ``p0`` component (its test); no cusp (the cusp coefficient is 1 all along).  Along the cusp
+    normal form's fold curve ``p0 = -2 x0^3`` is monotone while ``p1`` turns: only the cusp is
+    reported."""
+    problem = Turn()
+    start = locate_fold(problem, problem.to_u([0.0, 0.0, 0.0]) + 0.01, [-1.0, 1.0], free=0)
+    assert start.converged
+    curve = fold_curve(problem, start, direction=(0, -1), bounds=[[-5, 5], [-1.2, 1.5]],
+                       settings=Settings(monitor_turn=True))  # fmt: skip
+    x, p = problem.xs(curve), curve.p
+    assert np.all(np.abs(p[:, 0] + p[:, 1] ** 2) < EXACT) and np.all(np.abs(x) < EXACT)
+    assert curve.end == "bounds" and p[-1, 1] < -1.0
+    [turn] = curve.special
+    assert turn.kind == "turn" and turn.located
+    # located to 1e-4 in arclength (codim2._TURN_XTOL): p0, stationary there, to its square
+    assert abs(turn.point.p[0]) < EXACT and abs(turn.point.p[1]) < 1e-4
+    assert abs(turn.test) < 1e-4 and turn.residual < 1e-4
+    assert all(abs(q.tests["cusp"]) > 0.1 for q in curve.points)
+    assert not fold_curve(problem, start, direction=(0, -1), bounds=[[-5, 5], [-1.2, 1.5]]).special
+    problem = Cusp()
+    start = locate_fold(problem, problem.to_u([-0.98, 2.7, 0.1]), [2.0, 3.0], free=0)
+    curve = fold_curve(problem, start, direction=(0, -1), bounds=[[-5, 5], [-1, 3.05]],
+                       settings=Settings(monitor_turn=True))  # fmt: skip
+    assert [sp.kind for sp in curve.special] == ["cusp"]
 
 
 def test_a_curve_lands_on_the_values_of_p0_asked_for():

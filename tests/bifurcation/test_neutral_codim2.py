@@ -112,7 +112,7 @@ def test_the_curve_near_the_type_change_is_located_at_v095_n4():
 @pytest.mark.slow
 def test_above_the_coarse_resolution_the_seed_comes_from_the_coarse_search():
     """N = 5 on 18x36 (finer than N = 4 on 16x32): the seed at chi = 3 is solved for from the
-    coarse search's lambda_c (the progress says so), located on the N = 5 augmented system,
+    coarse first loss of stability (the progress says so), located on the N = 5 augmented system,
     and equals, to that search's 1e-3, the lambda_c of the bracketing search at N = 5 itself
     (critical_lambda without its coarse start: the independent way); a curve seeded on the
     only requested chi is not continued, the seed is its point.  Measured: 8.575964 against
@@ -123,7 +123,7 @@ def test_above_the_coarse_resolution_the_seed_comes_from_the_coarse_search():
     said = []
     c = neutral_curve_codim2(physics, [3.0], disc, locate_type_change=False,
                              progress=said.append)  # fmt: skip
-    assert any("seed_from" in d for d in said)
+    assert any("from_coarse" in d for d in said)
     assert not any("direction" in d for d in said)
     (point,) = c.points
     assert point.located and point.bifurcation == "hopf"

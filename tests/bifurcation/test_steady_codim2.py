@@ -202,3 +202,30 @@ def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_c
     assert 0.2544 <= change.chi <= 0.2577
     assert change.lambda_c == pytest.approx(7.520, abs=5e-3)
     assert change.omega_R == pytest.approx(0.058, abs=3e-3)
+
+
+def test_the_type_changes_secant_iterations_find_brents_crossing_in_fewer_solves():
+    """The same crossing as above (v = 0.95, N = 4 on 16x32) by the secant iterations from a
+    start off the root (0.26: where the curves' own points put it is within about 0.005):
+    the same chi to xtol (Brent's 0.256642, measured with the reference path in the test
+    above, and independently inside the tracer's bracket [0.2544, 0.2577]), in fewer gap
+    evaluations than Brent's seven."""
+    from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS
+
+    disc = vs.Discretisation(grid=16, degree=4)
+    settings = DEFAULT_SETTINGS
+    low = vs.branch(vs.Physics(v=0.95, lam=7.0, chi=0.26), disc, "lam", [7.0, 7.3, 7.45, 7.5],
+                    locate=False, arclength=False).points[-1].steady  # fmt: skip
+    up = vs.steady_tank_treading(vs.Physics(v=0.95, lam=7.59, chi=0.27), disc)
+    eq = SteadyEquations(low.physics, disc, form="spec")
+    fold = codim2.locate_fold(eq, *eq.state(low), free=1, settings=settings)
+    hopf = codim2.locate_hopf(eq, *eq.state(up), free=1, settings=settings)
+    seen = []
+    change = locate_type_change(eq, fold, hopf, (0.25, 0.265), settings=settings, guess=0.26,
+                                progress=lambda d: seen.append(d["chi"]))  # fmt: skip
+    assert change.located and abs(change.gap) < 1e-4
+    assert 0.2544 <= change.chi <= 0.2577
+    assert change.chi == pytest.approx(0.256642, abs=2e-6)
+    assert len(seen) == len(set(seen)) and len(seen) <= 5
+    with pytest.raises(ValueError, match="method"):
+        locate_type_change(eq, fold, hopf, (0.25, 0.265), method="newton")

@@ -41,7 +41,7 @@ import abc
 import logging
 import math
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import Any
 
@@ -96,6 +96,11 @@ _BT_TRIES = 6
 #: A corrected Hopf point whose omega fell below this fraction of the last point's is refused
 #: as if omega had crossed zero (omega = 0 makes the Hopf system degenerate: the fold curve
 #: solves it too).
+#: Arclength tolerance of a turn's location (:meth:`_Tracer.locate_turn`): ``p[0]`` is
+#: stationary there, so its value is off by the square of that (the vesicle at N = 4: 41 s with
+#: ``locate_tol = 1e-7``).
+_TURN_XTOL = 1e-4
+
 _OMEGA_FLOOR = 1e-6
 
 
@@ -484,6 +489,15 @@ class Settings:
     monitor_cusp : bool
         Evaluate the cusp coefficient at every fold point (one call of the Jacobian action
         derivative, two Jacobians by default); without it cusps are not detected.
+    monitor_turn : bool
+        Locate a smooth extremum of ``p[0]`` along a fold curve (a special point ``"turn"``):
+        where two consecutive steps move ``p[0]`` opposite ways, the root of the ``p[0]``
+        component of the curve's tangent (the kernel of its defining system's Jacobian, oriented
+        along the curve) by Brent's method between the three points.  The tangent is that of
+        whatever system defines the curve, so this holds for a curve defined by an approximate
+        Jacobian too, where a test built on ``w^T F_p`` would not.  A cusp (where ``p[1]``
+        turns) is not one.  Off by default: on the BT normal form the turn coincides with BT
+        (its fold curve ``p0 = p1^2 / 4``).
     method : {"minaug", "extended"}
         The defining system of the curves: minimally augmented (the default) or the standard
         extended system with the null vector among the unknowns.
@@ -535,6 +549,7 @@ class Settings:
     n_eigenvalues: int = 6
     finite_ratio: float = 1e4
     monitor_cusp: bool = True
+    monitor_turn: bool = False
     method: str = "minaug"
     newton_differences: str = "forward"
     forward_step: float | None = None
@@ -607,6 +622,8 @@ class CurvePoint:
         complex), unit length.
     evaluations : Evaluations
         Calls made to reach this point since the previous one (failed tries included).
+    refused : int
+        Steps of the continuation refused (and halved) since the previous point.
     """
 
     kind: str
@@ -622,6 +639,7 @@ class CurvePoint:
     v: np.ndarray
     w: np.ndarray
     evaluations: Evaluations = field(default_factory=Evaluations)
+    refused: int = 0
 
 
 @dataclass(frozen=True, eq=False)
@@ -630,19 +648,22 @@ class SpecialPoint:
 
     Attributes
     ----------
-    kind : {"bt", "cusp", "hopf_end"}
-        ``"hopf_end"`` is the end of a Hopf curve (omega -> 0) that could not be located as a
-        BT point.
+    kind : {"bt", "cusp", "turn", "hopf_end"}
+        ``"turn"`` is a fold curve's smooth extremum in ``p[0]`` (:class:`Settings`,
+        ``monitor_turn``); ``"hopf_end"`` is the end of a Hopf curve
+        (omega -> 0) that could not be located as a BT point.
     point : CurvePoint
-        The located point (kind ``"bt"`` for BT, ``"fold"`` for a cusp); for an unlocated
-        one, the nearest curve point.
+        The located point (kind ``"bt"`` for BT, ``"fold"`` for a cusp or turn); for an
+        unlocated one, the nearest curve point.
     located : bool
         Whether the defining system was solved to tolerance.
     residual : float
         Largest residual of the defining system at ``point``, test function included
-        (BT: ``F``, ``g``, ``w^T B v``; cusp: ``F``, ``g``, ``a``).
+        (BT: ``F``, ``g``, ``w^T B v``; cusp: ``F``, ``g``, ``a``; turn: ``F``, ``g`` and
+        the tangent's ``p[0]`` component).
     test : float
-        The test function at ``point`` (BT: ``w^T B v / |w||v|``; cusp: ``a``).
+        The test function at ``point`` (BT: ``w^T B v / |w||v|``; cusp: ``a``; turn: the unit
+        tangent's ``p[0]`` component).
     index : int
         The special point lies between ``points[index]`` and ``points[index + 1]`` of its
         curve (the last point for a curve's end).
@@ -1527,6 +1548,7 @@ class _Tracer:
         self.states.append(u)
         t = t / np.linalg.norm(t[form.geom])
         ds, end, bt_tries = s.ds, "max_points", 0
+        refusals = 0  # steps refused since the last point
         done: set[float] = set()  # landing values reached (or given up on)
         while len(self.points) < self.max_points:
             u_pred = u + ds * t
@@ -1547,6 +1569,7 @@ class _Tracer:
             if land is not None:
                 done.add(land)
                 if refused is not None:  # the landing failed: the arclength step instead
+                    refusals += 1
                     log.debug("%s curve: landing on p0 = %.6g refused: %s", form.kind, land,
                               refused)  # fmt: skip
                     continue
@@ -1561,6 +1584,7 @@ class _Tracer:
                 refused = "omega <= 0"
             if refused is not None:
                 log.debug("%s curve: step %.3g refused: %s", form.kind, ds, refused)
+                refusals += 1
                 ds *= 0.5
                 if ds < s.ds_min:
                     end = "step_too_small"
@@ -1579,7 +1603,8 @@ class _Tracer:
                         )
                     break
                 continue
-            point = self.make_point(solved.u, solved, mark)
+            point = replace(self.make_point(solved.u, solved, mark), refused=refusals)
+            refusals = 0
             if form.kind == "fold":
                 self.fold_special(u, solved.u, point)
             self.points.append(point)
@@ -1667,6 +1692,13 @@ class _Tracer:
         ca, cb = a.tests["cusp"], point_b.tests["cusp"]
         if "cusp" not in skip and np.isfinite(ca) and np.isfinite(cb) and ca * cb < 0:
             found.append((ca / (ca - cb), "cusp"))
+        n0 = self.ev.n
+        if self.s.monitor_turn and len(self.states) >= 2 and not found:
+            before, last = u_a[n0] - self.states[-2][n0], u_b[n0] - u_a[n0]
+            if before * last < 0:  # p[0] turned within the last two steps
+                sp = self.locate_turn(self.states[-2], u_b, len(self.points) - 2)
+                if sp is not None:
+                    self.special.append(sp)
         for theta, kind in sorted(found):
             index = len(self.points) - 1
             if kind == "bt":
@@ -1681,10 +1713,46 @@ class _Tracer:
             self.special.append(sp)
 
     def locate_cusp(self, u_a, u_b, fa, fb, index) -> SpecialPoint:
-        """The root of the cusp coefficient along the chord from ``u_a`` to ``u_b`` (Brent).
+        """The root of the cusp coefficient along the chord from ``u_a`` to ``u_b``."""
+        ev, s, form = self.ev, self.s, self.form
+
+        def cusp(solved: _Solved, t: np.ndarray) -> float:
+            tests, _, _ = _fold_tests(ev, solved.J, solved.u, form.b, form.c, s, True)
+            return tests["cusp"]
+
+        return self._root_along(u_a, u_b, fa, fb, index, "cusp", cusp)
+
+    def locate_turn(self, u_a, u_b, index) -> SpecialPoint | None:
+        """The extremum of ``p[0]`` between ``u_a`` and ``u_b`` (two steps of the curve): the
+        root of the ``p[0]`` component of the tangent, oriented along the chord."""
+        ev, form = self.ev, self.form
+        n0 = ev.n
+        chord = np.where(form.geom, u_b - u_a, 0.0)
+
+        def slope(solved: _Solved, t: np.ndarray) -> float:
+            k = _tangent(ev, form.system(), solved.u)
+            k = k if k @ chord >= 0 else -k
+            return float(k[n0] / np.linalg.norm(k[form.geom]))
+
+        try:
+            fa = slope(_Solved(u_a, True, 0, 0.0, None, None), chord)
+            fb = slope(_Solved(u_b, True, 0, 0.0, None, None), chord)
+        except np.linalg.LinAlgError as error:
+            log.warning("turn near point %d not located: %s", index + 1, error)
+            return None
+        if not fa * fb < 0:
+            log.info("p[0] turned near point %d, but the tangents at the ends agree", index + 1)
+            return None
+        return self._root_along(u_a, u_b, fa, fb, index, "turn", slope,
+                                max(self.s.locate_tol, _TURN_XTOL))  # fmt: skip
+
+    def _root_along(self, u_a, u_b, fa, fb, index, kind, evaluate,
+                    xtol: float | None = None) -> SpecialPoint:  # fmt: skip
+        """The root of ``evaluate(solved, t)`` along the chord from ``u_a`` to ``u_b`` (Brent),
+        its values ``fa``, ``fb`` at the ends.
 
         Each evaluation is a corrector on the hyperplane at arclength ``sigma`` along the
-        chord, from the linear interpolation, with the borders of ``u_a``.
+        chord, from the linear interpolation, with the borders of the last point.
         """
         ev, s = self.ev, self.s
         start = ev.evaluations()
@@ -1701,23 +1769,21 @@ class _Tracer:
             guess = u_a + (sigma / length) * (u_b - u_a)
             solved = self.correct(guess, u_a, t, sigma)
             if not solved.converged:
-                raise np.linalg.LinAlgError("corrector failed while locating a cusp")
-            tests, _, _ = _fold_tests(ev, solved.J, solved.u, self.form.b, self.form.c, s, True)
-            cache[sigma] = (solved, tests["cusp"])
-            return tests["cusp"]
+                raise np.linalg.LinAlgError(f"corrector failed while locating a {kind}")
+            cache[sigma] = (solved, evaluate(solved, t))
+            return cache[sigma][1]
 
         located, calls = False, 0
         try:
-            root, info = brentq(
-                value, 0.0, length, xtol=s.locate_tol, rtol=4 * _EPS, full_output=True
-            )
+            root, info = brentq(value, 0.0, length, xtol=s.locate_tol if xtol is None else xtol,
+                                rtol=4 * _EPS, full_output=True)  # fmt: skip
             if root not in cache:
                 value(root)
             located, calls = bool(info.converged), info.function_calls
             solved, test = cache[root]
         except (np.linalg.LinAlgError, ValueError, RuntimeError) as error:
             log.warning(
-                "cusp between fold points %d and %d not located: %s", index, index + 1, error
+                "%s between fold points %d and %d not located: %s", kind, index, index + 1, error
             )
             solved = _Solved(u_a, False, 0, math.nan, None, None)
             test = fa
@@ -1727,9 +1793,9 @@ class _Tracer:
         else:
             point = self.make_point(solved.u, solved, start)
             residual = max(solved.residual, abs(test))
-        log.info("cusp %s at p = %s", "located" if located else "NOT located", point.p)
+        log.info("%s %s at p = %s", kind, "located" if located else "NOT located", point.p)
         return SpecialPoint(
-            kind="cusp",
+            kind=kind,
             point=point,
             located=located and solved.converged,
             residual=residual,

@@ -150,13 +150,16 @@ class NeutralCurve:
     #: located, residual, the test function, other_unstable, the two smallest eigenvalues
     bt_points: list[dict] = field(default_factory=list)
     cusp_points: list[dict] = field(default_factory=list)
+    #: where a fold curve's chi turns smoothly (an extremum of chi along it, not a cusp: the
+    #: left or right end of the folds' range in chi), the same keys
+    turn_points: list[dict] = field(default_factory=list)
     #: the Jacobian the codim2 curves are defined by (:data:`.steady_codim2.FORMS`)
     form: str = "spec"
 
     def to_dict(self) -> dict:
         extra = {} if self.method == "trace" else {
             "bt_points": list(self.bt_points), "cusp_points": list(self.cusp_points),
-            "form": self.form}  # fmt: skip
+            "turn_points": list(self.turn_points), "form": self.form}  # fmt: skip
         return stamped({
             "method": self.method,
             **extra,

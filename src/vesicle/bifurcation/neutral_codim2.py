@@ -16,13 +16,15 @@ by Brent's method on the difference of the two points solved at the same ``chi``
 How
 ---
 1. **A seed** at the requested ``chi`` nearest 1 (the largest for the vorticity branch): the
-   bracketing search :func:`vesicle.bifurcation.critical.critical_lambda` gives a stable
-   state just below ``lambda_c``, and the Hopf (or fold) point is solved for from it on its
-   augmented system.  Finer than N = 4 on 16x32 the search runs at that coarse resolution
-   only, its state is continued to the full one and the point solved for there from the
-   coarse ``lambda_c`` (:func:`_coarse_seed`; the full search where that fails).
-   Where the bracket fails (a fold it cannot see) the branch is stepped in
-   ``lambda`` from a stable state to the first loss of stability (:func:`_first_loss`).
+   branch from low ``lambda`` stepped to its first loss of stability (:func:`_first_loss`,
+   steps of 8-30 % placed by the growth rate's extrapolation), and the Hopf (or fold) point
+   solved for there on its augmented system.  Finer than N = 4 on 16x32 the stepping runs at
+   that coarse resolution only, its state is continued to the full one and the point solved
+   for there (:func:`_coarse_first_loss`).  Where that fails, and first on the vorticity
+   branch, the bracketing search :func:`vesicle.bifurcation.critical.critical_lambda` gives a
+   stable state just below ``lambda_c`` (at the coarse resolution first:
+   :func:`_coarse_seed`) from which the point is solved for.  (The search first: at v = 0.85,
+   N = 4 it spent 151 s failing next to the fold at chi = 1 before the stepping found it.)
 2. **Its curve continued** both ways in ``chi`` by pseudo-arclength
    (:func:`vesicle.bifurcation.codim2.hopf_curve` / ``fold_curve``), with its Bogdanov–Takens
    and cusp points located on the way; from a BT point with no other unstable eigenvalue the
@@ -93,14 +95,25 @@ _FAILURES = (NewtonError, ShapeError, SolverError)
 #: start's by then (those never recovered); the first step is 0.3 (0.1 ramped up over three
 #: points of every curve), and a requested chi up to 1.5 steps ahead is landed on directly
 #: (a refused step is still halved down to 1e-5: a run at v = 0.85 with 1e-3 reported no
-#: cusp where the earlier settings had located one).
+#: cusp where the earlier settings had located one); fold curves are watched for a smooth
+#: turn of chi (at v = 0.85, N = 4, the lower fold curve turned back at chi about 0.126 with
+#: no cusp found: the left end of the folds' range, where the stable region closes).
 DEFAULT_SETTINGS = codim2.Settings(ftol=1e-8, step_tol=1e-6, forward_step=1e-5, ds=0.3,
                                    ds_max=0.6, target_iterations=3, locate_tol=1e-7,
                                    central_after=3, max_iter=5, stall_after=2,
-                                   land_ahead=1.5)  # fmt: skip
+                                   land_ahead=1.5, monitor_turn=True)  # fmt: skip
 
 #: Relative step in lambda of the search for the first loss of stability (:func:`_first_loss`).
 LOSS_STEP = 1.08
+
+#: Where the first-loss search starts again when the state at its first lambda is unstable
+#: (:func:`_first_loss`).
+LOW_START = 1.0
+
+#: Largest relative step in lambda of that search, where the growth rate's extrapolation
+#: puts the crossing far ahead (:func:`_loss_step`; at v = 0.85, N = 4, chi = 1 the 8 % steps
+#: took 22 states from lambda = 0.77 to the fold at 4.07).
+LOSS_STEP_MAX = 1.3
 
 #: A step of the first-loss search whose shape moves this many times faster (per unit of
 #: lambda) than the last step's is taken for a jump to another sheet and halved.  Approaching
@@ -117,6 +130,15 @@ OFF_BOUNDARY = 3
 #: A fold curve is given up once its chi has turned back by this much in log chi (its
 #: cusp passed: the points found are kept).
 TURNED_BACK = 0.05
+
+#: A fold curve past the type change (a Hopf curve found lies beyond it in lambda: it is no
+#: longer the stability boundary) goes on only to locate its cusp, for at most this many
+#: points, and none after a point that needed more than ``CUSP_REFUSALS`` refused steps (at
+#: N = 8 the fold curve next to the cusp crept for 4-7 min of refused steps without passing it:
+#: v = 0.95 and 0.90, fourth session; at N = 4 v = 0.90 reached its cusp after a point with
+#: refused steps).
+CUSP_POINTS = 4
+CUSP_REFUSALS = 2
 
 #: A seed solved for from the coarse lambda_c (:func:`_coarse_seed`) is kept only within
 #: this relative distance of it (N = 4's lambda_c lies 1-8 % below N = 8's).
@@ -218,6 +240,11 @@ class _Context:
     curves: list[_Curve] = field(default_factory=list)
     special: list[codim2.SpecialPoint] = field(default_factory=list)
     visited_bt: set = field(default_factory=set)
+    #: the equations of the curves' points (``eq`` itself, except in a coarse search)
+    curves_eq: SteadyEquations | None = None
+    #: the last stable steady state of each first-loss search, as (chi, lam, discretisation,
+    #: shape): the starts of later searches (shapes only: a state keeps its problem's operators)
+    stable: list = field(default_factory=list)
 
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
@@ -252,8 +279,24 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
     where it is real or where Newton finds no state one step further (halving the step four
     times first).  Raises ``NewtonError`` where no loss is found in the parameter box."""
     side, lo, hi = ctx.side, ctx.bounds[1][0], ctx.bounds[1][1]
-    state = reach(ctx.at(chi, lam0), ctx.disc, orientation=ctx.orientation, jacobian=ctx.jacobian)
+    state = _curve_start(ctx, chi, lam0)
+    if state is None:
+        state = reach(ctx.at(chi, lam0), ctx.disc, orientation=ctx.orientation,
+                      jacobian=ctx.jacobian)  # fmt: skip
     growth, freq = _leading(state, ctx.modes)
+    if growth >= 0 and side > 0 and lam0 > LOW_START and lo <= LOW_START:
+        # unstable there: the branch from low lambda is the one asked for, and the state
+        # reached may lie on another (v = 0.90, N = 4, chi = 0.1: a state with a complex
+        # unstable pair at 4.53, continued down to 0.5 without a stable state, while the
+        # branch from lambda = 1 is stable up to its fold at 5.35)
+        try:
+            low = _curve_start(ctx, chi, LOW_START) or reach(
+                ctx.at(chi, LOW_START), ctx.disc, orientation=ctx.orientation,
+                jacobian=ctx.jacobian)  # fmt: skip
+            state = low
+            growth, freq = _leading(state, ctx.modes)
+        except _FAILURES as err:
+            log.info("chi = %.4g: no state at lambda = %g (%s)", chi, LOW_START, err)
     while growth >= 0:  # start lower (higher for the vorticity branch) until stable
         lam = state.lam * LOSS_STEP ** (-2 * side)
         if not lo <= lam <= hi:
@@ -267,15 +310,16 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
             state = reach(ctx.at(chi, lam), ctx.disc, orientation=ctx.orientation,
                           jacobian=ctx.jacobian)  # fmt: skip
         growth, freq = _leading(state, ctx.modes)
-    ratio = LOSS_STEP**side
     last: tuple[float, float] | None = None  # the previous state's (lam, growth)
     last_rate: float | None = None  # |da / dlam| of the last step
     while True:
-        fold = _fold_ahead(ctx, chi, state, growth, freq, last, ratio)
+        step = _loss_step(state.lam, growth, freq, last, side)
+        fold = _fold_ahead(ctx, chi, state, growth, freq, last, step)
         if fold is not None:
+            _keep_stable(ctx, state)
             return fold
         last = (state.lam, growth)
-        lam, halvings, nxt = state.lam * ratio, 0, None
+        lam, halvings, nxt = state.lam * step, 0, None
         if not lo <= lam <= hi:
             raise NewtonError(f"no loss of stability at chi = {chi:.4g} for lam up to "
                               f"{state.lam:.4g} (the box ends at {hi if side > 0 else lo:g})")
@@ -293,12 +337,15 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
                 nxt = None
                 halvings += 1
                 if halvings > 4:  # a fold between state.lam and lam
+                    _keep_stable(ctx, state)
                     ctx.say({"chi": chi, "first_loss": "fold beyond", "lam": state.lam})
                     x, p = ctx.eq.state(state)
                     return _locate(ctx, "fold", x, p)
-                lam = state.lam * ratio ** (0.5**halvings)
+                lam = state.lam * step ** (0.5**halvings)
         last_rate = rate
         g2, f2 = _leading(nxt, ctx.modes)
+        if g2 >= 0:
+            _keep_stable(ctx, state)
         ctx.say({"chi": chi, "lam": nxt.lam, "growth": g2})
         if g2 >= 0:
             # the crossing between the two states, linear in the growth rate
@@ -312,6 +359,69 @@ def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
             x, _ = ctx.eq.state(state)
             return _locate(ctx, "fold", x, p)
         state, growth, freq = nxt, g2, f2
+
+
+#: Stable states kept for later searches (:func:`_keep_stable`).
+KEPT_STABLE = 16
+
+
+def _keep_stable(ctx: _Context, state) -> None:
+    """Keep the shape of a stable state for the starts of later searches."""
+    ctx.stable.append((state.physics.chi, state.lam, ctx.disc, state.shape))
+    del ctx.stable[:-KEPT_STABLE]
+
+
+def _curve_start(ctx: _Context, chi: float, lam0: float):
+    """The steady state at ``(chi, lam0)`` by Newton from the nearest stable state of the
+    searches so far (in ``log chi`` and ``log lambda``, at this resolution), else from the shape
+    of the nearest curve point in ``chi``, if that converges to a stable state; else None (then
+    :func:`~vesicle.bifurcation.branch.reach` from the default start: at v = 0.85, N = 4,
+    chi = 1.47 that took 60 s of continuation legs from v = 0.95)."""
+    starts = []
+    mine = [(c, lam, shape) for c, lam, disc, shape in ctx.stable if disc == ctx.disc]
+    if mine:
+        starts.append(min(mine, key=lambda k: abs(math.log(k[0] / chi))
+                          + abs(math.log(k[1] / lam0)))[2])  # fmt: skip
+    pts = [q for c in ctx.curves for q in c.curve.points if q.converged]
+    if pts:
+        q = min(pts, key=lambda q: abs(q.p[0] - math.log(chi)))
+        try:
+            starts.append((ctx.curves_eq or ctx.eq).problem_at(q.p).shape(np.asarray(q.x[:-2])))
+        except ShapeError:
+            pass
+    for start in starts:
+        try:
+            state = steady_tank_treading(ctx.at(chi, lam0), ctx.disc, initial=start,
+                                         orientation=ctx.orientation,
+                                         jacobian=ctx.jacobian)  # fmt: skip
+        except _FAILURES as err:
+            log.info("chi = %.4g: no state from a nearby one (%s)", chi, err)
+            continue
+        growth, _ = _leading(state, ctx.modes)
+        if growth < 0:
+            return state
+    return None
+
+
+def _loss_step(lam: float, growth: float, freq: float, last: tuple[float, float] | None,
+               side: int) -> float:  # fmt: skip
+    """The factor of the next lambda of :func:`_first_loss`: :data:`LOSS_STEP` (its inverse
+    on the vorticity side), longer (up to :data:`LOSS_STEP_MAX`) where the growth rate
+    extrapolated from the last two states stays below zero for twice the step: linearly, and
+    for a real leading eigenvalue also its square linearly (the square-root law of a fold, which
+    reaches zero sooner).  Halfway to the nearest predicted crossing."""
+    if last is None or not growth < 0:
+        return LOSS_STEP**side
+    lam1, g1 = last
+    if lam1 == lam or not g1 < growth:  # not rising towards the crossing
+        return LOSS_STEP**side
+    crossings = [lam - growth * (lam - lam1) / (growth - g1)]
+    if freq <= 1e-6:
+        crossings.append(lam + growth**2 * (lam - lam1) / (g1**2 - growth**2))
+    ahead = min(side * (c - lam) for c in crossings)  # how far, along the way the steps go
+    factor = 1.0 + 0.5 * ahead / lam
+    factor = min(max(factor, LOSS_STEP), LOSS_STEP_MAX)
+    return factor**side
 
 
 def _loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
@@ -430,7 +540,16 @@ def _coarse_seed(ctx: _Context, chi: float) -> codim2.CurvePoint | None:
 
 
 def _seed(ctx: _Context, chi: float) -> codim2.CurvePoint:
-    """The first critical point of the trace, at ``chi`` (see the module docstring)."""
+    """The first critical point of the trace, at ``chi`` (see the module docstring): on the
+    in-plane branch the first loss of stability from low lambda (:func:`_loss`), else (and on
+    the vorticity branch first) the bracketing search."""
+    if ctx.side > 0:
+        try:
+            point = _loss(ctx, chi, _start_lambda(ctx, chi))
+            if point.converged and not point.other_unstable:
+                return point
+        except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+            log.info("neutral curve seed at chi = %.4g by the first loss: %s", chi, err)
     point = _coarse_seed(ctx, chi)
     if point is not None:
         return point
@@ -492,8 +611,9 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
         # way the curve goes, appended after its first step)
         run = [0, float(start_point.p[0]), 0.0]
         omegas = [float(start_point.omega)]  # the Hopf frequency along the curve
+        beyond = [0]  # fold points past the type change
 
-        def stop(point, special, kind=kind, run=run, omegas=omegas):
+        def stop(point, special, kind=kind, run=run, omegas=omegas, beyond=beyond):
             # a curve that is not a stability boundary (another eigenvalue unstable on
             # OFF_BOUNDARY points in a row); a fold curve whose chi has turned back (past its
             # cusp: the S's other fold lies below the first, never the edge of the stable
@@ -522,6 +642,10 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
                 return True
             if kind == "fold" and any(sp.kind == "cusp" and sp.located for sp in special):
                 return True  # past its located cusp (as TURNED_BACK below, sooner)
+            if kind == "fold" and _hopf_beyond(ctx, point):
+                beyond[0] += 1  # past the type change: on only for its cusp, while it is cheap
+                if beyond[0] > CUSP_POINTS or point.refused > CUSP_REFUSALS:
+                    return True
             return kind == "fold" and way * point.p[0] < run[2] - TURNED_BACK
 
         curve = trace(ctx.eq, start, direction=d, bounds=ctx.bounds, max_points=ctx.max_points,
@@ -538,6 +662,34 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
                 other = "fold" if kind == "hopf" else "hopf"
                 ctx.say({"switch": f"{kind} -> {other} at BT", "chi": math.exp(sp.point.p[0])})
                 _continue(ctx, sp, other, directions=(d,))
+
+
+def _turn_beyond(ctx: _Context, chi: float) -> codim2.SpecialPoint | None:
+    """A located turn of a fold curve (an extremum of chi along it) with ``chi`` beyond it: its
+    points on both sides lie on the other side of the turn in chi (a smallest chi above
+    ``chi``, or a largest below)."""
+    t = math.log(chi)
+    for c in ctx.curves:
+        for sp in c.curve.special:
+            if sp.kind != "turn" or not sp.located:
+                continue
+            t0 = float(sp.point.p[0])
+            near = [q.p[0] for q in c.curve.points[max(sp.index - 1, 0): sp.index + 3]]
+            if near and all((q - t0) * (t0 - t) > 0 for q in near):
+                return sp
+    return None
+
+
+def _hopf_beyond(ctx: _Context, point: codim2.CurvePoint) -> bool:
+    """Whether a Hopf curve found so far lies beyond the fold ``point`` in lambda at its chi
+    (above it on the in-plane side): the fold is not the stability boundary there."""
+    t = float(point.p[0])
+    for c in ctx.curves:
+        if c.kind == "hopf":
+            lam = _interpolated(c, t)
+            if lam is not None and ctx.side * (lam - float(point.p[1])) > 0:
+                return True
+    return False
 
 
 def _guarded_continue(ctx: _Context, start: codim2.CurvePoint, failed: list[dict]) -> None:
@@ -642,6 +794,35 @@ def _nearest(curve: _Curve, t: float) -> codim2.CurvePoint:
     return min(pts, key=lambda q: abs(q.p[0] - t))
 
 
+def _interpolated(curve: _Curve, t: float) -> float | None:
+    """``lambda`` of the curve's candidate segments at ``log chi = t`` (linear), or None."""
+    for a, b in curve.segments():
+        if min(a.p[0], b.p[0]) <= t <= max(a.p[0], b.p[0]) and a.p[0] != b.p[0]:
+            s = (t - a.p[0]) / (b.p[0] - a.p[0])
+            return float(a.p[1] + s * (b.p[1] - a.p[1]))
+    return None
+
+
+def _crossing_estimate(fold: _Curve, hopf: _Curve, lo: float, hi: float):
+    """Where the two curves' own points (joined linearly) cross inside ``log chi`` in
+    ``[lo, hi]``: ``(chi, d gap / d chi)`` of the gap ``lambda_hopf - lambda_fold`` there (the
+    start of :func:`.steady_codim2.locate_type_change`'s secant iterations), or
+    ``(None, None)``."""
+    ts = sorted({lo, hi, *(q.p[0] for c in (fold, hopf) for seg in c.segments() for q in seg
+                           if lo < q.p[0] < hi)})  # fmt: skip
+    gaps = []
+    for t in ts:
+        lf, lh = _interpolated(fold, t), _interpolated(hopf, t)
+        gaps.append(None if lf is None or lh is None else lh - lf)
+    for (t0, g0), (t1, g1) in itertools.pairwise(zip(ts, gaps, strict=True)):
+        if g0 is None or g1 is None or g0 * g1 > 0 or g0 == g1:
+            continue
+        t = t0 + g0 * (t1 - t0) / (g0 - g1)
+        chi = math.exp(t)
+        return chi, (g1 - g0) / (t1 - t0) / chi
+    return None, None
+
+
 def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dict | None]:
     """Where the winning candidate changes kind along the curves' own points: the two curves
     that swap, then Brent's method on their difference over the range of chi both cover
@@ -679,10 +860,11 @@ def _type_change(ctx: _Context, chis: Sequence[float]) -> tuple[dict | None, dic
         a, b = math.exp(lo + 0.5 * margin), math.exp(hi - margin)
         # the gap is probed from the switch the curves' points show, outwards, before Brent
         probes = [math.exp(lo + f * (hi - lo)) for f in (0.25, 0.5, 0.75)]
+        guess, slope = _crossing_estimate(fold.curve, hopf.curve, math.log(a), math.log(b))
         try:
             change = locate_type_change(
                 ctx.eq, _nearest(fold.curve, math.log(a)), _nearest(hopf.curve, math.log(a)),
-                (a, b), settings=ctx.settings, probes=probes,
+                (a, b), settings=ctx.settings, probes=probes, guess=guess, slope=slope,
                 progress=lambda d: ctx.say({"type_change": d}),
                 start=lambda kind, chi, f=fold.curve, h=hopf.curve: _nearest(
                     f if kind == "fold" else h, math.log(chi)))  # fmt: skip
@@ -786,6 +968,7 @@ def neutral_curve_codim2(
     ctx = _Context(physics, disc, eq, modes, orientation, jacobian,
                    settings or DEFAULT_SETTINGS, side, bounds, max_points, say,
                    [math.log(c) for c in chis])  # fmt: skip
+    ctx.curves_eq = eq
     failed: list[dict] = []
     seed = _seed(ctx, seed_chi)
     if not seed.converged:
@@ -808,11 +991,22 @@ def neutral_curve_codim2(
         else:
             break
         tried.add(c)
+        turn = _turn_beyond(ctx, c)
+        coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
         try:
-            point = _loss(ctx, c, _start_lambda(ctx, c))
+            if turn is not None and coarse is not None:  # past where the folds end: the
+                # search at the coarse resolution only (one that finds nothing steps the whole box)
+                point = _coarse_first_loss(ctx, c, _start_lambda(ctx, c))
+                if point is None:
+                    raise NewtonError("the search at N = 4 on 16x32 found none")
+            else:
+                point = _loss(ctx, c, _start_lambda(ctx, c))
         except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
-            failed.append({"chi": c, "error": f"no critical point: {err}"})
-            log.warning("neutral curve: no critical point at chi = %.4g: %s", c, err)
+            note = "" if turn is None else (
+                f"; the fold curve turns back at chi = {math.exp(turn.point.p[0]):.6g}, "
+                f"lambda = {turn.point.p[1]:.6g} (located): no fold of it lies beyond")
+            failed.append({"chi": c, "error": f"no critical point: {err}{note}"})
+            log.warning("neutral curve: no critical point at chi = %.4g: %s%s", c, err, note)
             continue
         if not point.converged:
             failed.append({"chi": c, "error": f"the {point.kind} point did not converge "
@@ -849,4 +1043,5 @@ def neutral_curve_codim2(
     return NeutralCurve(physics, disc, points, change, [], time.perf_counter() - t0, failed,
                         orientation, modes, ctx.settings.ftol, 0, method="codim2",
                         bt_points=_special_dicts(ctx, "bt"),
-                        cusp_points=_special_dicts(ctx, "cusp"), form=form)  # fmt: skip
+                        cusp_points=_special_dicts(ctx, "cusp"),
+                        turn_points=_special_dicts(ctx, "turn"), form=form)  # fmt: skip

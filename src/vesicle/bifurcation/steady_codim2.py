@@ -25,6 +25,7 @@ of the system whose fold is the branch's turning point; see docs/reference/codim
 
 from __future__ import annotations
 
+import itertools
 import logging
 import math
 from collections import OrderedDict
@@ -413,41 +414,54 @@ def locate_type_change(
     start: Callable[[str, float], codim2.CurvePoint] | None = None,
     probes: Sequence[float] = (),
     gap_tol: float = 1e-4,
+    guess: float | None = None,
+    slope: float | None = None,
+    method: str = "secant",
 ) -> TypeChange:
     """The ``chi`` in ``chi_bracket`` where the fold point (held ``chi``, free ``lambda``) and
-    the Hopf point of the other sheet have the same ``lambda``: Brent's method on
-    ``lambda_hopf(chi) - lambda_fold(chi)``, each point solved for from the last one found.
+    the Hopf point of the other sheet have the same ``lambda``: a root of the gap
+    ``lambda_hopf(chi) - lambda_fold(chi)``, each point solved for on its augmented system.
     ``fold`` and ``hopf`` are located points near the bracket (:func:`codim2.locate_fold`,
     :func:`codim2.locate_hopf` from states on the two sheets).  Raises ``ValueError`` if the
     gap does not change sign over the bracket, ``RuntimeError`` if a point does not converge.
-    ``start(kind, chi)``, if given, is the point each solve starts from (e.g. the nearest point
-    of its own curve), used where it is nearer in chi than the last point found of that kind.
-    ``probes``: values of chi inside the bracket where the gap is evaluated in turn, from the
-    high end down, before Brent's method, which then runs between the first two of opposite
-    sign (the high end first: at v = 0.95 the low end of the overlap is the BT point, where the
-    Hopf point is hardest to solve).  ``located`` also needs the two lambdas at the found chi
-    within ``gap_tol`` (measured: 3e-6 at xtol 1e-6; a jump between sheets leaves about 0.1).
-    Each chi's gap is solved once (Brent's first calls are the bracket's ends again)."""
-    last = {"fold": fold, "hopf": hopf}
+
+    How (``method``)
+    ----------------
+    ``"secant"`` (the default, with ``guess``): secant iterations on the gap from ``guess``
+    (e.g. where the curves' own points cross) and a second point one estimated Newton step
+    away (``slope``: an estimate of the gap's derivative in ``chi``), until the next step is
+    below ``xtol``; a root it does not reach inside the bracket in ``SECANT_EVALUATIONS``
+    evaluations falls back to Brent's method, which ``"brent"`` (the reference, and the path
+    without ``guess``) uses from the start: the gap evaluated at ``probes`` from the high end
+    down to the first change of sign, then Brent's method between those two (the high end
+    first: at v = 0.95 the low end of the overlap is the BT point, where the Hopf point is
+    hardest to solve).  Each ``chi``'s gap is solved once.
+
+    Each solve starts from the linear extrapolation in ``log chi`` of the two nearest of the
+    points of its kind found so far and ``start(kind, chi)`` (e.g. the nearest point of its
+    own curve), with the nearest one's null vectors.  ``located`` needs both points
+    converged and their lambdas within ``gap_tol`` at the found ``chi`` (measured: 3e-6 at xtol
+    1e-6; a jump between sheets leaves about 0.1)."""
+    if method not in ("secant", "brent"):
+        raise ValueError(f"method must be 'secant' or 'brent', got {method!r}")
+    found: dict[str, list[codim2.CurvePoint]] = {"fold": [fold], "hopf": [hopf]}
 
     def at(kind: str, chi: float) -> codim2.CurvePoint:
-        q = last[kind]
-        if start is not None:  # the nearer in chi of the last found and the given start
-            other = start(kind, chi)
-            if abs(other.p[0] - math.log(chi)) < abs(q.p[0] - math.log(chi)):
-                q = other
-        p = np.array([math.log(chi), q.p[1]])
+        t = math.log(chi)
+        known = found[kind] + ([start(kind, chi)] if start is not None else [])
+        q, x, lam, omega = _predicted(known, t)
+        p = np.array([t, lam])
         if kind == "fold":
-            r = codim2.locate_fold(equations, q.x, p, free=1, v=q.v, w=q.w, settings=settings)
+            r = codim2.locate_fold(equations, x, p, free=1, v=q.v, w=q.w, settings=settings)
         else:
-            r = codim2.locate_hopf(equations, q.x, p, free=1, omega=q.omega, settings=settings)
+            r = codim2.locate_hopf(equations, x, p, free=1, omega=omega, settings=settings)
         if not r.converged:
             raise RuntimeError(f"the {kind} point at chi = {chi:.6g} did not converge "
                                f"(residual {r.residual:.2e})")  # fmt: skip
-        last[kind] = r
+        found[kind].append(r)
         return r
 
-    gaps_at: dict[float, float] = {}  # Brent's first calls are the bracket's ends again
+    gaps_at: dict[float, float] = {}
 
     def gap(chi: float) -> float:
         if chi in gaps_at:
@@ -460,6 +474,15 @@ def locate_type_change(
         return gaps_at[chi]
 
     lo, hi = sorted(chi_bracket)
+    if method == "secant" and guess is not None and lo < guess < hi:
+        try:
+            chi = _secant(gap, guess, slope, lo, hi, xtol)
+        except (RuntimeError, ValueError) as err:  # a solve failed: the reference path
+            log.info("type change: the secant iterations stopped (%s); Brent's method", err)
+            chi = None
+        if chi is not None:
+            return _type_change_at(found, chi, gap_tol)
+        # the bracket is still the one given: its ends and probes are solved afresh (once)
     nodes = [hi, *sorted((c for c in probes if lo < c < hi), reverse=True), lo]
     gaps = [gap(nodes[0])]
     for c in nodes[1:]:  # down to the first change of sign
@@ -472,17 +495,76 @@ def locate_type_change(
             f"(gaps {', '.join(f'{g:+.3g}' for g in gaps)} from the top)"
         )
     k = len(gaps) - 1
-    return _crossing(at, gap, nodes[k], nodes[k - 1], xtol, gap_tol)
+    chi = brentq(gap, nodes[k], nodes[k - 1], xtol=xtol)
+    gap(chi)
+    return _type_change_at(found, chi, gap_tol)
 
 
-def _crossing(at, gap, a: float, b: float, xtol: float, gap_tol: float) -> TypeChange:
-    """Brent's method on ``gap`` over ``[a, b]`` (a change of sign) and the points there."""
-    chi = brentq(gap, a, b, xtol=xtol)
-    f, h = at("fold", chi), at("hopf", chi)
+#: Gap evaluations the secant iterations of :func:`locate_type_change` may take before Brent's
+#: method takes over (from the curves' crossing they take 3-4).
+SECANT_EVALUATIONS = 6
+
+
+def _secant(gap, guess: float, slope: float | None, lo: float, hi: float,
+            xtol: float) -> float | None:  # fmt: skip
+    """Secant iterations on ``gap`` from ``guess`` inside ``(lo, hi)``: the evaluated ``chi``
+    whose next step is below ``xtol`` (the root is that close), or None where they leave the
+    bracket or do not get there in :data:`SECANT_EVALUATIONS` evaluations.  Once two
+    evaluations change sign, a step outside the closest such pair is replaced by its midpoint."""
+    width = hi - lo
+    g0 = gap(guess)
+    if g0 == 0.0:
+        return guess
+    step = -g0 / slope if slope is not None and slope != 0.0 and math.isfinite(slope) else \
+        0.05 * width  # fmt: skip
+    step = math.copysign(min(max(abs(step), 10.0 * xtol), 0.25 * width), step)
+    second = min(max(guess + step, lo + 0.5 * xtol), hi - 0.5 * xtol)
+    pts = [(guess, g0), (second, gap(second))]
+    while True:
+        (a, ga), (b, gb) = pts[-2], pts[-1]
+        if gb == 0.0:
+            return b
+        if gb == ga:
+            return None
+        c = b - gb * (b - a) / (gb - ga)
+        pairs = [(x0, x1) for (x0, y0), (x1, y1) in itertools.pairwise(sorted(pts))
+                 if y0 * y1 < 0]  # fmt: skip
+        if pairs:
+            x0, x1 = min(pairs, key=lambda pr: pr[1] - pr[0])
+            if not x0 < c < x1:
+                c = 0.5 * (x0 + x1)
+        if not lo < c < hi:
+            return None
+        if abs(c - b) <= xtol:
+            return b
+        if len(pts) >= SECANT_EVALUATIONS:
+            return None
+        pts.append((c, gap(c)))
+
+
+def _type_change_at(found: dict[str, list[codim2.CurvePoint]], chi: float,
+                    gap_tol: float) -> TypeChange:  # fmt: skip
+    """The type change at ``chi`` from the two points solved for there."""
+    t = math.log(chi)
+    f = next(q for q in reversed(found["fold"]) if q.p[0] == t)
+    h = next(q for q in reversed(found["hopf"]) if q.p[0] == t)
     gap_c = float(h.p[1] - f.p[1])
     # located: both points converged and they meet (a jump of one of them to another sheet
-    # between Brent's evaluations would leave a change of sign at a discontinuity instead)
+    # between the evaluations would leave a change of sign at a discontinuity instead)
     located = bool(f.converged and h.converged and abs(gap_c) <= gap_tol)
     return TypeChange(chi=float(chi), lambda_c=float(0.5 * (f.p[1] + h.p[1])),
                       omega_R=float(h.omega), fold=f, hopf=h, gap=gap_c,
                       located=located)  # fmt: skip
+
+
+def _predicted(points: Sequence[codim2.CurvePoint], t: float):
+    """The start of a solve at ``log chi = t``: the nearest point found, and its state
+    ``(x, lambda, omega)`` extrapolated linearly in ``t`` through the second nearest."""
+    near = sorted(points, key=lambda q: abs(q.p[0] - t))
+    q = near[0]
+    if len(near) < 2 or near[1].p[0] == q.p[0]:
+        return q, q.x, float(q.p[1]), float(q.omega)
+    r = near[1]
+    s = (t - q.p[0]) / (r.p[0] - q.p[0])
+    x = q.x + s * (r.x - q.x)
+    return q, x, float(q.p[1] + s * (r.p[1] - q.p[1])), float(q.omega + s * (r.omega - q.omega))

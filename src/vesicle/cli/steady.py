@@ -503,8 +503,9 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
         how = "located" if t.get("located") else "NOT located (estimate)"
         click.echo(f"type change at chi = {t['chi']:.6g} (lambda_c = {t['lambda_c']:.6g}, "
                    f"{how}): {t['below']} below, {t['above']} above")  # fmt: skip
-    for key, name in (("bt_points", "Bogdanov-Takens"), ("cusp_points", "cusp")):
-        for q in result[key]:
+    for key, name in (("bt_points", "Bogdanov-Takens"), ("cusp_points", "cusp"),
+                      ("turn_points", "fold-curve turn (extremum of chi)")):  # fmt: skip
+        for q in result.get(key, []):
             how = "located" if q["located"] else "not located"
             res = "" if q["residual"] is None else f", residual {q['residual']:.2g}"
             click.echo(f"{name} point at chi = {q['chi']:.6g}, lambda = {q['lambda']:.6g} "

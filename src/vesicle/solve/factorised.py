@@ -24,6 +24,7 @@ rounding (no tolerance); tests hold it to the GMRES solve.
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -226,8 +227,14 @@ class FactorisedSystem(CoupledBlocks):
     def _factor_schur(self) -> None:
         self._z = self.solve_uu(self.apply_us(self._functions))  # (P, 3, nt, np)
         schur = self.constraint(self._z).T  # (P, P): column j = P div Z e_j
+        self._schur_matrix = schur
         self._schur = scipy.linalg.lu_factor(schur, check_finite=False)
-        self.schur_condition = float(np.linalg.cond(schur))
+
+    @functools.cached_property
+    def schur_condition(self) -> float:
+        """The 2-norm condition number of the tension Schur complement (a diagnostic, computed
+        when asked: its SVD cost 10 % of each factorisation at N = 4 and 7 % at N = 8)."""
+        return float(np.linalg.cond(self._schur_matrix))
 
     def solve(self, b_u: np.ndarray, r: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Velocities and tensions of ``A [u; t] = [b_u; r]``.
