@@ -453,6 +453,34 @@ def test_a_smooth_turn_of_p0_is_located_and_a_cusp_is_not_taken_for_one():
     assert [sp.kind for sp in curve.special] == ["cusp"]
 
 
+class Walled(SaddleNode):
+    """The saddle-node whose residual cannot be evaluated above ``p1 = 1`` (NaN): every step
+    past it is refused."""
+
+    def residual(self, u, p):
+        return np.full(self.n, np.nan) if p[1] > 1.0 else super().residual(u, p)
+
+
+def test_a_curve_is_given_up_when_its_caller_says_so_after_refused_steps():
+    """``give_up(k)`` is asked after each refused step with the count since the last point:
+    True ends the curve there (``end == "given_up"``), before the step would shrink to
+    ``ds_min``; without it the same curve halves its step down to ``ds_min``."""
+    problem = Walled()
+    start = locate_fold(problem, problem.to_u([0.05, 0.0, 0.0]), [0.01, 0.0], free=0)
+    asked = []
+
+    def give_up(k):
+        asked.append(k)
+        return k >= 2
+
+    curve = fold_curve(problem, start, direction=(0, 1), bounds=[[-5, 5], [-1, 3]],
+                       give_up=give_up)  # fmt: skip
+    assert curve.end == "given_up" and asked[-2:] == [1, 2] and asked.count(2) == 1
+    assert curve.p[-1, 1] <= 1.0 and np.all(np.abs(curve.p[:, 0]) < EXACT)
+    plain = fold_curve(problem, start, direction=(0, 1), bounds=[[-5, 5], [-1, 3]])
+    assert plain.end == "step_too_small" and len(plain.points) > len(curve.points)
+
+
 def test_a_curve_lands_on_the_values_of_p0_asked_for():
     """The cusp's fold curve ``p0 = -2 x0^3, p1 = 3 x0^2`` with landing values of p0 on both
     sheets: each is a point of the curve with p0 exactly that value (held by its corrector)

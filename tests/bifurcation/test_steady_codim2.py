@@ -177,13 +177,11 @@ def test_a_hopf_point_located_on_the_augmented_system_is_the_bracketed_lambda_c(
     assert point.omega > 0.5 and not point.other_unstable
 
 
-def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_curve():
-    """v = 0.95, N = 4 on 16x32 with the neutral curve's settings: the lower sheet's fold and
-    the upper sheet's Hopf point solved for at each chi, and the chi where their lambdas meet.
-    Fails if the type change is not located or moves out of the independent references: the
-    one-parameter tracer bracketed the change in [0.2544, 0.2577] with lambda_c about 7.520
-    and omega_R 0.058 at its Hopf end (docs/notes/continuation-measurements.md); SPEC 14: near
-    0.25.  Measured: 0.256642, 7.519719, omega_R 0.05720 (also with central differences)."""
+@pytest.fixture(scope="module")
+def sheets_near_the_type_change():
+    """v = 0.95, N = 4 on 16x32: the lower sheet's fold at chi = 0.26 and the upper sheet's
+    Hopf point at 0.27, located with the neutral curve's settings (shared by the two tests of
+    the type change: 40 s of setup)."""
     from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS
 
     disc = vs.Discretisation(grid=16, degree=4)
@@ -194,6 +192,18 @@ def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_c
     eq = SteadyEquations(low.physics, disc, form="spec")
     fold = codim2.locate_fold(eq, *eq.state(low), free=1, settings=settings)
     hopf = codim2.locate_hopf(eq, *eq.state(up), free=1, settings=settings)
+    return eq, fold, hopf, settings
+
+
+def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_curve(
+        sheets_near_the_type_change):
+    """v = 0.95, N = 4 on 16x32 with the neutral curve's settings: the lower sheet's fold and
+    the upper sheet's Hopf point solved for at each chi, and the chi where their lambdas meet.
+    Fails if the type change is not located or moves out of the independent references: the
+    one-parameter tracer bracketed the change in [0.2544, 0.2577] with lambda_c about 7.520
+    and omega_R 0.058 at its Hopf end (docs/notes/continuation-measurements.md); SPEC 14: near
+    0.25.  Measured: 0.256642, 7.519719, omega_R 0.05720 (also with central differences)."""
+    eq, fold, hopf, settings = sheets_near_the_type_change
     seen = []
     change = locate_type_change(eq, fold, hopf, (0.25, 0.265), settings=settings,
                                 progress=lambda d: seen.append(d["chi"]))  # fmt: skip
@@ -204,22 +214,14 @@ def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_c
     assert change.omega_R == pytest.approx(0.058, abs=3e-3)
 
 
-def test_the_type_changes_secant_iterations_find_brents_crossing_in_fewer_solves():
+def test_the_type_changes_secant_iterations_find_brents_crossing_in_fewer_solves(
+        sheets_near_the_type_change):
     """The same crossing as above (v = 0.95, N = 4 on 16x32) by the secant iterations from a
     start off the root (0.26: where the curves' own points put it is within about 0.005):
     the same chi to xtol (Brent's 0.256642, measured with the reference path in the test
     above, and independently inside the tracer's bracket [0.2544, 0.2577]), in fewer gap
     evaluations than Brent's seven."""
-    from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS
-
-    disc = vs.Discretisation(grid=16, degree=4)
-    settings = DEFAULT_SETTINGS
-    low = vs.branch(vs.Physics(v=0.95, lam=7.0, chi=0.26), disc, "lam", [7.0, 7.3, 7.45, 7.5],
-                    locate=False, arclength=False).points[-1].steady  # fmt: skip
-    up = vs.steady_tank_treading(vs.Physics(v=0.95, lam=7.59, chi=0.27), disc)
-    eq = SteadyEquations(low.physics, disc, form="spec")
-    fold = codim2.locate_fold(eq, *eq.state(low), free=1, settings=settings)
-    hopf = codim2.locate_hopf(eq, *eq.state(up), free=1, settings=settings)
+    eq, fold, hopf, settings = sheets_near_the_type_change
     seen = []
     change = locate_type_change(eq, fold, hopf, (0.25, 0.265), settings=settings, guess=0.26,
                                 progress=lambda d: seen.append(d["chi"]))  # fmt: skip

@@ -1497,7 +1497,7 @@ class _Tracer:
     """Pseudo-arclength continuation of one curve with its special points."""
 
     def __init__(self, ev, form: _Formulation, s: Settings, bounds, max_points, progress,
-                 stop=None, landing=None):  # fmt: skip
+                 stop=None, landing=None, give_up=None):  # fmt: skip
         self.ev, self.form, self.s = ev, form, s
         self.bounds = None if bounds is None else np.asarray(bounds, dtype=float)
         if self.bounds is not None and self.bounds.shape != (2, 2):
@@ -1507,6 +1507,7 @@ class _Tracer:
         self.max_points = max_points
         self.progress = progress
         self.stop = stop
+        self.give_up = give_up
         self.landing = sorted({float(x) for x in landing}) if landing is not None else []
         self.skip_first: set[str] = set()
         self.points: list[CurvePoint] = []
@@ -1570,6 +1571,9 @@ class _Tracer:
                 done.add(land)
                 if refused is not None:  # the landing failed: the arclength step instead
                     refusals += 1
+                    if self.give_up is not None and self.give_up(refusals):
+                        end = "given_up"
+                        break
                     log.debug("%s curve: landing on p0 = %.6g refused: %s", form.kind, land,
                               refused)  # fmt: skip
                     continue
@@ -1585,6 +1589,9 @@ class _Tracer:
             if refused is not None:
                 log.debug("%s curve: step %.3g refused: %s", form.kind, ds, refused)
                 refusals += 1
+                if self.give_up is not None and self.give_up(refusals):
+                    end = "given_up"
+                    break
                 ds *= 0.5
                 if ds < s.ds_min:
                     end = "step_too_small"
@@ -1865,6 +1872,7 @@ def fold_curve(
     progress: Callable[[CurvePoint], None] | None = None,
     stop: Callable[[CurvePoint, tuple[SpecialPoint, ...]], bool] | None = None,
     landing: Sequence[float] | None = None,
+    give_up: Callable[[int], bool] | None = None,
 ) -> Curve:
     """Continue a fold (saddle-node) curve in the parameter plane.
 
@@ -1891,6 +1899,9 @@ def fold_curve(
         Values of ``p[0]`` the curve is to have points at exactly: a step that would pass one
         is shortened onto it and corrected with ``p[0]`` held there (where that corrector
         fails, the ordinary step is taken and the value skipped).
+    give_up : callable, optional
+        ``give_up(k)`` after each refused step, ``k`` the steps refused since the last point:
+        True ends the curve there (``end == "given_up"``).
 
     Returns
     -------
@@ -1936,7 +1947,7 @@ def fold_curve(
         if point.kind == "bt"
         else point
     )
-    tracer = _Tracer(ev, form, s, bounds, max_points, progress, stop, landing)
+    tracer = _Tracer(ev, form, s, bounds, max_points, progress, stop, landing, give_up)
     if point.kind == "bt":
         tracer.skip_first.add("bt")
     return tracer.run(first, u, t)
@@ -1953,6 +1964,7 @@ def hopf_curve(
     progress: Callable[[CurvePoint], None] | None = None,
     stop: Callable[[CurvePoint, tuple[SpecialPoint, ...]], bool] | None = None,
     landing: Sequence[float] | None = None,
+    give_up: Callable[[int], bool] | None = None,
 ) -> Curve:
     """Continue a Hopf curve in the parameter plane (``omega > 0`` along it).
 
@@ -1963,7 +1975,7 @@ def hopf_curve(
         A Hopf point from :func:`locate_hopf`, or a BT point (kind ``"bt"``, e.g. located on a
         fold curve): then the curve starts there with ``omega = 0`` and goes into
         ``omega > 0`` (the switch fold -> Hopf), and ``direction`` is not used.
-    direction, bounds, max_points, settings, progress, stop, landing
+    direction, bounds, max_points, settings, progress, stop, landing, give_up
         As for :func:`fold_curve`.
 
     Returns
@@ -2004,4 +2016,5 @@ def hopf_curve(
     else:
         t = _orient(_tangent(ev, form.system(), u), ev.n, direction)
         first = point
-    return _Tracer(ev, form, s, bounds, max_points, progress, stop, landing).run(first, u, t)
+    return _Tracer(ev, form, s, bounds, max_points, progress, stop, landing,
+                   give_up).run(first, u, t)  # fmt: skip

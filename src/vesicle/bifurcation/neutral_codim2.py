@@ -133,7 +133,7 @@ TURNED_BACK = 0.05
 
 #: A fold curve past the type change (a Hopf curve found lies beyond it in lambda: it is no
 #: longer the stability boundary) goes on only to locate its cusp, for at most this many
-#: points, and none after a point that needed more than ``CUSP_REFUSALS`` refused steps (at
+#: points, and is given up once more than ``CUSP_REFUSALS`` steps in a row are refused (at
 #: N = 8 the fold curve next to the cusp crept for 4-7 min of refused steps without passing it:
 #: v = 0.95 and 0.90, fourth session; at N = 4 v = 0.90 reached its cusp after a point with
 #: refused steps).
@@ -648,8 +648,12 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
                     return True
             return kind == "fold" and way * point.p[0] < run[2] - TURNED_BACK
 
+        def give_up(refused, beyond=beyond):
+            # past the type change, refused steps are not spent on the cusp (4-7 min at N = 8)
+            return beyond[0] > 0 and refused > CUSP_REFUSALS
+
         curve = trace(ctx.eq, start, direction=d, bounds=ctx.bounds, max_points=ctx.max_points,
-                      settings=ctx.settings, stop=stop, landing=ctx.landing,
+                      settings=ctx.settings, stop=stop, landing=ctx.landing, give_up=give_up,
                       progress=lambda q, kind=kind: ctx.say(_point_summary(kind, q)))  # fmt: skip
         ctx.curves.append(_Curve(kind, curve))
         log.info("%s curve: %d points, end %s", kind, len(curve.points), curve.end)
