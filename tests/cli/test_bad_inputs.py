@@ -291,6 +291,7 @@ REFUSED = [
     bad("neutral --chi 0.1:10 --points 1", r"--points"),
     bad("neutral --chi 1,2 --points 3", r"--points"),
     bad("neutral --chi 1,-2", r"--chi.*positive"),
+    bad("neutral --chi 1 --continuation trace --cusps", r"--cusps applies to --continuation"),
     bad("neutral --chi abc", r"--chi"),
     bad("neutral --chi 0.1:10:2", r"--chi"),
     bad("neutral --chi 1 --states {afile}", r"--states"),

@@ -242,6 +242,8 @@ class _Context:
     visited_bt: set = field(default_factory=set)
     #: the equations of the curves' points (``eq`` itself, except in a coarse search)
     curves_eq: SteadyEquations | None = None
+    #: fold curves past the type change go on to their cusps however long that takes
+    cusps: bool = False
     #: the last stable steady state of each first-loss search, as (chi, lam, discretisation,
     #: shape): the starts of later searches (shapes only: a state keeps its problem's operators)
     stable: list = field(default_factory=list)
@@ -272,14 +274,15 @@ def _leading(state, modes: str) -> tuple[float, float]:
     return float(om[i, 1]), float(abs(om[i, 0]))
 
 
-def _first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePoint:
-    """The first loss of stability of the branch from a stable state at ``lam0``, stepping
-    ``lambda`` by :data:`LOSS_STEP` (down for the vorticity branch), solved for on its
-    augmented system: a Hopf point where the leading eigenvalue crossing is complex, a fold
-    where it is real or where Newton finds no state one step further (halving the step four
-    times first).  Raises ``NewtonError`` where no loss is found in the parameter box."""
+def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.CurvePoint:
+    """The first loss of stability of the branch from a stable state at ``lam0`` (``start``,
+    or one from a kept state or the default start: :func:`_curve_start`), stepping ``lambda``
+    by :data:`LOSS_STEP` to :data:`LOSS_STEP_MAX` (down for the vorticity branch), solved for
+    on its augmented system: a Hopf point where the leading eigenvalue crossing is complex, a
+    fold where it is real or where Newton finds no state one step further (halving the step
+    four times first).  Raises ``NewtonError`` where no loss is found in the parameter box."""
     side, lo, hi = ctx.side, ctx.bounds[1][0], ctx.bounds[1][1]
-    state = _curve_start(ctx, chi, lam0)
+    state = start if start is not None else _curve_start(ctx, chi, lam0)
     if state is None:
         state = reach(ctx.at(chi, lam0), ctx.disc, orientation=ctx.orientation,
                       jacobian=ctx.jacobian)  # fmt: skip
@@ -463,13 +466,21 @@ def _refined(ctx: _Context, chi: float, initial, lam_state: float, lam_c: float,
              omega: float | None, what: str) -> codim2.CurvePoint | None:  # fmt: skip
     """The critical point at ``chi`` at full resolution from a coarse one: the steady state
     at ``lam_state`` by Newton from ``initial`` (a coarser state or shape), then the Hopf
-    (``omega`` given) or fold point solved for from it with ``lam_c`` as its start.  ``None``
-    where that fails, or where the point has another unstable eigenvalue or lies more than
-    :data:`COARSE_SEED_GAP` from ``lam_c`` (logged, with ``what``)."""
+    (``omega`` given) or fold point solved for from it with ``lam_c`` as its start.  Where
+    that solve fails or its point lies more than :data:`COARSE_SEED_GAP` from ``lam_c``, the
+    branch is stepped from that state to its first loss at full resolution
+    (:func:`_first_loss`: at v = 0.90, N = 8, chi = 1 the Hopf point lies 6.5 % above N = 4's
+    and its solve from there failed).  ``None`` where all that fails, or where the point has
+    another unstable eigenvalue (logged, with ``what``)."""
     try:
         state = steady_tank_treading(ctx.at(chi, lam_state), ctx.disc, initial=initial,
                                      orientation=ctx.orientation,
                                      jacobian=ctx.jacobian)  # fmt: skip
+    except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+        log.info("%s at chi = %.4g: %s", what, chi, err)
+        return None
+    point = None
+    try:
         x, _ = ctx.eq.state(state)
         p = np.array([math.log(chi), lam_c])
         if omega is not None:
@@ -478,9 +489,16 @@ def _refined(ctx: _Context, chi: float, initial, lam_state: float, lam_c: float,
             point = codim2.locate_fold(ctx.eq, x, p, free=1, settings=ctx.settings)
     except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
         log.info("%s at chi = %.4g: %s", what, chi, err)
-        return None
-    near = abs(point.p[1] - lam_c) <= COARSE_SEED_GAP * lam_c
-    if not (point.converged and near and not point.other_unstable):
+    if point is None or not point.converged or \
+            abs(point.p[1] - lam_c) > COARSE_SEED_GAP * lam_c:  # fmt: skip
+        log.info("%s at chi = %.4g: not solved for from the coarse lambda %.5g; stepping from "
+                 "the state at %.5g", what, chi, lam_c, lam_state)  # fmt: skip
+        try:
+            point = _first_loss(ctx, chi, lam_state, start=state)
+        except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+            log.info("%s at chi = %.4g: %s", what, chi, err)
+            return None
+    if not point.converged or point.other_unstable:
         log.info("%s at chi = %.4g refused (converged %s, lam %.5g against the coarse %.5g, "
                  "other unstable %s)", what, chi, point.converged, point.p[1], lam_c,
                  point.other_unstable)  # fmt: skip
@@ -642,7 +660,7 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
                 return True
             if kind == "fold" and any(sp.kind == "cusp" and sp.located for sp in special):
                 return True  # past its located cusp (as TURNED_BACK below, sooner)
-            if kind == "fold" and _hopf_beyond(ctx, point):
+            if kind == "fold" and not ctx.cusps and _hopf_beyond(ctx, point):
                 beyond[0] += 1  # past the type change: on only for its cusp, while it is cheap
                 if beyond[0] > CUSP_POINTS or point.refused > CUSP_REFUSALS:
                     return True
@@ -917,6 +935,7 @@ def neutral_curve_codim2(
     settings: codim2.Settings | None = None,
     max_points: int = 80,
     locate_type_change: bool = True,
+    cusps: bool = False,
     progress: Callable[[dict], None] | None = None,
 ) -> NeutralCurve:
     """The neutral curve through the requested ``chi`` by two-parameter continuation (see the
@@ -942,6 +961,11 @@ def neutral_curve_codim2(
         Most points of each continued curve.
     locate_type_change : bool
         Solve for the change of type (False: ``type_change`` is None).
+    cusps : bool
+        Continue each fold curve past the type change to its cusp however many refused steps
+        that takes (default: given up there after :data:`CUSP_POINTS` points or more than
+        :data:`CUSP_REFUSALS` refused steps in a row; then the cusps of v = 0.95 and 0.90 are
+        not reached even at N = 4).
     progress : callable, optional
         Given a summary dict of each step (curve points, searches, located points).
 
@@ -973,6 +997,7 @@ def neutral_curve_codim2(
                    settings or DEFAULT_SETTINGS, side, bounds, max_points, say,
                    [math.log(c) for c in chis])  # fmt: skip
     ctx.curves_eq = eq
+    ctx.cusps = bool(cusps)
     failed: list[dict] = []
     seed = _seed(ctx, seed_chi)
     if not seed.converged:

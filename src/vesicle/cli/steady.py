@@ -471,7 +471,7 @@ def _neutral_kept(out: str | None, states: str | None, method: str = "trace") ->
 
 
 def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json, config_path,
-                    options, type_change) -> None:  # fmt: skip
+                    options, type_change, cusps=False) -> None:  # fmt: skip
     """``vesicle neutral --continuation codim2``: the curve, then its points, type change, BT and
     cusp points printed (or the JSON)."""
     try:
@@ -479,7 +479,7 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
         physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
         curve = neutral_curve_codim2(physics, chis, disc, orientation=orientation, modes=modes,
                                      jacobian=jacobian, form=form,
-                                     locate_type_change=type_change,
+                                     locate_type_change=type_change, cusps=cusps,
                                      progress=_echo_progress)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
@@ -543,6 +543,13 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 )
 @click.option("--no-type-change", is_flag=True, help="Do not locate the change of type.")
 @click.option(
+    "--cusps",
+    is_flag=True,
+    help="codim2: continue each fold curve past the change of type to its cusp, however many "
+    "refused steps that takes (by default it is given up there after 3 refused steps in a "
+    "row: at N = 8 the cusps were not reached in 4-7 min).",
+)
+@click.option(
     "--continuation",
     "continuation",
     type=click.Choice(["codim2", "trace"]),
@@ -592,8 +599,8 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 @config_option
 @click.pass_context
 @interruptible(lambda p: _neutral_kept(p["out"], p["states"], p.get("continuation", "trace")))
-def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, continuation, form,
-                    orientation, modes, jacobian, workers, scheduler, out, states, resume,
+def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, cusps, continuation,
+                    form, orientation, modes, jacobian, workers, scheduler, out, states, resume,
                     overwrite, as_json, config_path, **options) -> None:  # fmt: skip
     """Neutral curve lambda_c(chi) at fixed v: the edge of stable tank-treading, with the
     bifurcation type along the curve and where it changes (fold at low chi, Hopf at high)."""
@@ -609,8 +616,10 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, conti
         if out is not None:
             check_output(out, overwrite=overwrite, resume=False)
         _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
-                        config_path, options, not no_type_change)  # fmt: skip
+                        config_path, options, not no_type_change, cusps)  # fmt: skip
         return
+    if cusps:
+        fail("--cusps applies to --continuation codim2")
     if resume and out is None:
         fail("--resume continues the curve of an --out file: give --out")
     if resume and overwrite:

@@ -174,12 +174,15 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         when="2026-12-06, alone",
         source="docs/notes/codim2-measurements.md",
     ),
-    # the same section: the first complete N = 8 curve (2026-12-06, alone, /usr/bin/time).
+    # docs/notes/codim2-measurements.md *The N = 8 curves under 20 min* (2026-12-06, fifth
+    # session, alone, /usr/bin/time; 1454 s and 2112 s in the fourth session, 2009 s in the
+    # third).
     "neutral_codim2_n8": Cost(
         command="vesicle neutral --v 0.95 --chi 0.1:10 --points 13 --degree 8 --grid 32",
-        figure="24 min",
-        resolution="N = 8 on 32x64, v = 0.95 (BT point, type change and 13 located points)",
-        measured="1454 s",
+        figure="18 min",
+        resolution="N = 8 on 32x64, v = 0.95 and 0.90 (BT point, type change and 13 located "
+                   "points)",
+        measured="963 s (v = 0.95), 1079 s (v = 0.90)",
         when="2026-12-06, alone",
         source="docs/notes/codim2-measurements.md",
     ),
