@@ -164,13 +164,13 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         when="2026-12-03, the other core busy",
         source="docs/notes/continuation-measurements.md",
     ),
-    # docs/notes/codim2-measurements.md *Speed* (2026-12-06, third session, alone on the
-    # machine, /usr/bin/time; 364 s before Newton's actions came from the linearisation).
+    # docs/notes/codim2-measurements.md *The N = 8 curves under 20 min* (2026-12-06, fifth
+    # session, alone, /usr/bin/time; 202 s in the fourth session, 364 s in the second).
     "neutral_codim2_13": Cost(
         command="vesicle neutral --v 0.95 --chi 0.1:10 --points 13 --degree 4 --grid 16",
-        figure="3 min",
+        figure="2 min",
         resolution="N = 4 on 16x32, v = 0.95 (BT point, type change and 13 located points)",
-        measured="202 s",
+        measured="129 s",
         when="2026-12-06, alone",
         source="docs/notes/codim2-measurements.md",
     ),
