@@ -129,3 +129,23 @@ def test_above_the_coarse_resolution_the_seed_comes_from_the_coarse_search():
     assert point.located and point.bifurcation == "hopf"
     full = vs.critical_lambda(physics.replace(lam=1.0), disc, coarse=None)
     assert point.lambda_c == pytest.approx(full.lambda_c, abs=2e-3)
+
+
+@pytest.mark.slow
+def test_where_the_fold_curve_turns_in_chi_the_curve_ends_and_is_said_to():
+    """v = 0.85, N = 4 on 16x32, chi = 0.1 and 0.147 (about 2 min): the fold curve from
+    chi = 0.147 down turns in chi (a smooth extremum, not a cusp), the turn is located, and
+    chi = 0.1, beyond it, is a failure that says so (no stable state for lambda in [0.5, 100]).
+    Independent reference: the same fold curve traced with steps of 0.05 (the fifth session's
+    measurement, docs/notes/codim2-measurements.md) sampled chi down to 0.125171 at
+    lambda = 1.695 and 0.125178 at 1.615, so the extremum lies at or below 0.125171 and near
+    lambda = 1.65; located there at 0.1251487, 1.66738."""
+    disc = vs.Discretisation(grid=16, degree=4)
+    curve = neutral_curve_codim2(vs.Physics(v=0.85), [0.1, 0.147], disc)
+    (point,) = curve.points
+    assert point.located and point.bifurcation == "saddle-node" and point.chi == 0.147
+    (turn,) = [q for q in curve.turn_points if q["located"]]
+    assert 0.12505 <= turn["chi"] <= 0.125171 and turn["lambda"] == pytest.approx(1.66, abs=0.04)
+    (fail,) = curve.failed
+    assert fail["chi"] == 0.1 and "turns back" in fail["error"] and "no stable" in fail["error"]
+    assert not curve.cusp_points

@@ -972,8 +972,8 @@ def neutral_curve_codim2(
     Returns
     -------
     NeutralCurve
-        ``method = "codim2"``, with ``bt_points`` and ``cusp_points``; each point with
-        ``located``, ``residual`` and ``other_unstable``.
+        ``method = "codim2"``, with ``bt_points``, ``cusp_points`` and ``turn_points``; each
+        point with ``located``, ``residual`` and ``other_unstable``.
     """
     physics, chis, modes = curve_inputs(physics, chi, modes, orientation)
     lo, hi = map(float, lam_range)
