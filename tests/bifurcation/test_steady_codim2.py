@@ -231,3 +231,16 @@ def test_the_type_changes_secant_iterations_find_brents_crossing_in_fewer_solves
     assert len(seen) == len(set(seen)) and len(seen) <= 5
     with pytest.raises(ValueError, match="method"):
         locate_type_change(eq, fold, hopf, (0.25, 0.265), method="newton")
+
+
+def test_parameters_no_physics_has_give_nan_not_an_error(state):
+    """A corrector's iterate at lambda <= 0 (v = 0.85, N = 8: lambda = -27.7 raised from
+    Physics and ended a whole fold curve) gives NaN residuals and Jacobians, which the
+    continuation refuses like an unrepresentable shape, and the parameter derivative too."""
+    eq = SteadyEquations(state.physics, TINY)
+    x, p = eq.state(state)
+    bad = np.array([p[0], -27.7])
+    assert np.all(np.isnan(eq.residual(x, bad)))
+    assert np.all(np.isnan(eq.jacobian(x, bad)))
+    assert np.all(np.isnan(eq.parameter_derivative(x, bad)))
+    assert np.all(np.isfinite(eq.residual(x, p)))

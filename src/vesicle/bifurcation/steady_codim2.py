@@ -147,9 +147,17 @@ class SteadyEquations(codim2.Problem):
         return np.concatenate([a, steady.multipliers]), p
 
     # --------------------------------------------------------------- equations
+    @staticmethod
+    def _outside(p) -> bool:
+        """Parameters no physics has (lambda <= 0, or not finite): a corrector's wild iterate."""
+        return not (np.all(np.isfinite(p)) and p[1] > 0)
+
     def residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """``G(x, p)``; NaN where the shape cannot be represented or solved for (a corrector's
-        wild iterate: the continuation refuses the step and halves it)."""
+        """``G(x, p)``; NaN where the shape cannot be represented or solved for, or ``lambda``
+        is not positive (a corrector's wild iterate: the continuation refuses the step and
+        halves it; at v = 0.85, N = 8 an iterate at lambda = -27.7 ended a fold curve)."""
+        if self._outside(p):
+            return np.full(np.asarray(x).size, np.nan)
         P = self.problem_at(p)
         a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
         try:
@@ -163,7 +171,10 @@ class SteadyEquations(codim2.Problem):
         return G
 
     def jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """``G_y(x, p)``; NaN where the shape cannot be represented or solved for."""
+        """``G_y(x, p)``; NaN where the shape cannot be represented or solved for, or ``lambda``
+        is not positive."""
+        if self._outside(p):
+            return np.full((x.size, x.size), np.nan)
         try:
             return self._jacobian(x, p)
         except (ShapeError, SolverError) as err:
@@ -199,6 +210,8 @@ class SteadyEquations(codim2.Problem):
         residuals at moved parameters.  The constraint rows do not depend on ``p``.  With
         ``parameter_derivatives="differences"`` (the reference) the continuation differences
         residuals instead.  NaN where the shape cannot be represented or a solve fails."""
+        if self._outside(p):
+            return np.full((x.size, 2), np.nan)
         P = self.problem_at(p)
         m = x.size - 2
         out = np.zeros((x.size, 2))
@@ -268,6 +281,8 @@ class SteadyEquations(codim2.Problem):
 
     def _times(self, x: np.ndarray, p: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """``J(x, p) Q`` for a few columns (n, k), without forming ``J``."""
+        if self._outside(p):
+            raise ValueError(f"lambda must be positive, got {p[1]}")
         P = self.problem_at(p)
         m = x.size - 2
         a, mu = x[:m], x[m:]
