@@ -817,12 +817,10 @@ def _nearest(curve: _Curve, t: float) -> codim2.CurvePoint:
 
 
 def _interpolated(curve: _Curve, t: float) -> float | None:
-    """``lambda`` of the curve's candidate segments at ``log chi = t`` (linear), or None."""
-    for a, b in curve.segments():
-        if min(a.p[0], b.p[0]) <= t <= max(a.p[0], b.p[0]) and a.p[0] != b.p[0]:
-            s = (t - a.p[0]) / (b.p[0] - a.p[0])
-            return float(a.p[1] + s * (b.p[1] - a.p[1]))
-    return None
+    """``lambda`` of the curve's first candidate at ``log chi = t`` (:func:`_candidates`), or
+    None."""
+    cands = _candidates([curve], math.exp(t))
+    return cands[0].lam if cands else None
 
 
 def _crossing_estimate(fold: _Curve, hopf: _Curve, lo: float, hi: float):
