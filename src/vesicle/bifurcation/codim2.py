@@ -242,6 +242,12 @@ class Problem(abc.ABC):
     # (cusp coefficient, BT) keep the accurate derivative.  A problem with a false attribute
     # ``newton_actions`` is treated as not having the hook (its reference path); likewise one
     # with a false ``exact_parameter_derivative`` for :meth:`parameter_derivative`.
+    #
+    # Optional: ``spectrum_pencil(J) -> (A, B)``, the pencil whose finite eigenvalues are the
+    # growth rates that the spectrum check (``other_unstable``) and the reported eigenvalues
+    # use, where it is not ``(J, mass)``: a problem with neutral modes of a symmetry that the
+    # dynamics removes (the vesicle's translations in the general basis) holds them fixed by
+    # extra algebraic rows there.  The defining systems keep ``J`` and ``mass``.
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``F_p(x, p)``, shape (n, 2); default :func:`fd_parameter_derivative`."""
@@ -331,6 +337,19 @@ class _Evaluator:
         self.differences = differences
         self.forward_step = _FORWARD_STEP if forward_step is None else float(forward_step)
         self.base: tuple = (None, None, None, None)
+        self.own_pencil = callable(getattr(problem, "spectrum_pencil", None))
+
+    def spectrum_pencil(self, J: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """The pencil of the spectrum check: the problem's, else ``(J, B)`` (``B`` ``None``
+        for the identity)."""
+        if not self.own_pencil:
+            return J, None if self.identity_mass else self.B
+        A, B = self.problem.spectrum_pencil(np.asarray(J, float))
+        A, B = np.asarray(A, float), np.asarray(B, float)
+        if A.shape != B.shape or A.ndim != 2 or A.shape[0] != A.shape[1] or A.shape[0] < self.n:
+            raise ValueError(f"spectrum_pencil gave shapes {A.shape} and {B.shape}: expected "
+                             f"two square matrices of the same size, at least {self.n}")
+        return A, B
 
     def evaluations(self) -> Evaluations:
         return Evaluations(*self.counts)
@@ -1200,7 +1219,7 @@ class _Formulation:
 
 def _spectrum(J, ev, kind: str, omega: float, s: Settings):
     """Leading finite eigenvalues and whether a non-critical one has ``Re >= -unstable_tol``."""
-    eig = finite_eigenvalues(J, None if ev.identity_mass else ev.B, s.finite_ratio)
+    eig = finite_eigenvalues(*ev.spectrum_pencil(J), s.finite_ratio)
     rest = list(eig)
     targets = {"fold": [0.0], "bt": [0.0, 0.0], "hopf": [1j * omega, -1j * omega]}[kind]
     for target in targets:
@@ -1209,6 +1228,24 @@ def _spectrum(J, ev, kind: str, omega: float, s: Settings):
     other = bool(any(z.real >= -s.unstable_tol for z in rest))
     order = np.argsort(-eig.real, kind="stable")
     return eig[order][: s.n_eigenvalues], other
+
+
+def _admissible_target(ev, J, s: Settings, eig: np.ndarray, target: float | None) -> complex:
+    """The eigenvalue the borders start from: of the problem's spectrum pencil where it has
+    one (so that a neutral symmetry mode, absent from that pencil, is not taken for the
+    critical one), nearest ``target`` (``None``: the complex one nearest the imaginary axis);
+    without such a pencil, ``target`` itself (or the nearest of ``eig``)."""
+    if not ev.own_pencil:
+        return target if target is not None else eig[int(np.argmin(np.abs(eig.real)))]
+    admissible = finite_eigenvalues(*ev.spectrum_pencil(J), s.finite_ratio)
+    if target is None:
+        upper = admissible[admissible.imag > 1e-8 * max(1.0, float(np.max(np.abs(admissible))))]
+        if upper.size == 0:
+            raise ValueError("the pencil has no complex eigenvalue: not near a Hopf point")
+        return complex(upper[int(np.argmin(np.abs(upper.real)))])
+    if admissible.size == 0:
+        raise ValueError("the spectrum pencil has no finite eigenvalue")
+    return complex(admissible[int(np.argmin(np.abs(admissible - target)))])
 
 
 def _fold_tests(ev, J, u, b, c, s: Settings, cusp: bool):
@@ -1338,7 +1375,7 @@ def locate_fold(
         eig, vl, vr = _pencil_vectors(J, ev.B, s.finite_ratio)
         if eig.size == 0:
             raise ValueError("the pencil has no finite eigenvalue")
-        i = int(np.argmin(np.abs(eig)))
+        i = int(np.argmin(np.abs(eig - _admissible_target(ev, J, s, eig, 0.0))))
         v = _realify(vr[:, i]) if v is None else v
         w = _realify(vl[:, i]) if w is None else w
     b, c = _unit(np.asarray(w, float)), _unit(np.asarray(v, float))
@@ -1398,6 +1435,9 @@ def locate_hopf(
             raise ValueError("the pencil has no complex eigenvalue: not near a Hopf point")
         if omega is None:
             i = upper[int(np.argmin(np.abs(eig[upper].real)))]
+            if ev.own_pencil:  # the pair nearest the axis among the admissible modes
+                i = upper[int(np.argmin(np.abs(
+                    eig[upper] - _admissible_target(ev, J, s, eig[upper], None))))]
             omega = float(eig[i].imag)
         else:
             i = upper[int(np.argmin(np.abs(eig[upper] - 1j * omega)))]
@@ -1481,7 +1521,7 @@ def locate_bt(
         eig, vl, vr = _pencil_vectors(J, ev.B, s.finite_ratio)
         if eig.size == 0:
             raise ValueError("the pencil has no finite eigenvalue")
-        i = int(np.argmin(np.abs(eig)))
+        i = int(np.argmin(np.abs(eig - _admissible_target(ev, J, s, eig, 0.0))))
         v = _realify(vr[:, i]) if v is None else v
         w = _realify(vl[:, i]) if w is None else w
     b, c = _unit(np.asarray(w, float)), _unit(np.asarray(v, float))

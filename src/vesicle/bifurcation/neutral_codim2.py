@@ -751,8 +751,8 @@ def _state_numbers(ctx: _Context, q: codim2.CurvePoint) -> tuple[float, float, f
             Jc[:n, :n] -= np.einsum("k,kij->ij", mu, H)
         else:
             J[:n, :n] += np.einsum("k,kij->ij", mu, H)
-        s_spec = codim2.finite_eigenvalues(J, ctx.eq.mass)
-        s_curv = codim2.finite_eigenvalues(Jc, ctx.eq.mass)
+        s_spec = codim2.finite_eigenvalues(*ctx.eq.spectrum_pencil(J))
+        s_curv = codim2.finite_eigenvalues(*ctx.eq.spectrum_pencil(Jc))
         target = 1j * q.omega
         shift = float(s_curv[np.argmin(np.abs(s_curv - target))].real
                       - s_spec[np.argmin(np.abs(s_spec - target))].real)  # fmt: skip

@@ -306,7 +306,7 @@ def _neutral_item(
         task = {"chi": list(quick_chi)} if quick else {"chi": "0.1:10", "points": 13}
         write_text_atomically(config, toml_text({
             "sweep": {"task": "neutral", "out": f"{key}.h5"}, "grid": {"v": volumes},
-            "task": {**task, "orientation": orientation, "continuation": "trace"},
+            "task": {**task, "orientation": orientation, "continuation": "codim2"},
             "discretisation": {"degree": degree, "grid": grid}}))  # fmt: skip
         if options.get("draw_only"):  # redrawn after the items it draws beside (the store is
             store = SweepStore.open(read_sweep_config(config))  # complete, or as it is)

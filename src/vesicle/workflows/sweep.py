@@ -24,7 +24,8 @@ TOML file::
                            #   parameter ("lam" | "chi" | "v", not in [grid]) and values
                            #   ("1:9", "1:9:0.5" or a list), past_fold, xtol; for neutral:
                            #   chi ("0.1:10" with points, or a list), continuation
-                           #   ("codim2", the default, as `vesicle neutral`, with form; or
+                           #   ("codim2", the default, as `vesicle neutral`, with form and
+                           #   cusps; or
                            #   "trace": the tracer, with xtol, type_tol and checkpoints),
                            #   locate_type_change; orientation ("flow" | "vorticity": the
                            #   TT branch) for tt, stability (general modes by default on the
@@ -167,7 +168,7 @@ def _neutral_chi(options: dict) -> list[float]:
 
 def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     if options.get("continuation", "codim2") == "codim2":
-        keys = ("jacobian", "locate_type_change", "orientation", "modes", "form")
+        keys = ("jacobian", "locate_type_change", "orientation", "modes", "form", "cusps")
         c = neutral_curve_codim2(physics, _neutral_chi(options), disc,
                                  **{k: options[k] for k in keys if k in options})  # fmt: skip
         return c.to_dict()  # written when complete (no checkpoint: see the module notes)
@@ -290,7 +291,7 @@ TASKS = {
         _neutral,
         ("v",),
         ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change", "orientation",
-         "modes", "continuation", "form"),
+         "modes", "continuation", "form", "cusps"),
         _neutral_incomplete,
     ),
     "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
@@ -505,8 +506,12 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
                                      "its own tolerance)")  # fmt: skip
             if options.get("form", "spec") not in FORMS:
                 raise ValueError(f"[task] form must be one of {FORMS}, got {options['form']!r}")
-        elif "form" in options:
-            raise ValueError("[task] form applies to continuation = 'codim2' only")
+            if not isinstance(options.get("cusps", False), bool):
+                raise ValueError(f"[task] cusps must be true or false, got {options['cusps']!r}")
+        else:
+            for key in ("form", "cusps"):
+                if key in options:
+                    raise ValueError(f"[task] {key} applies to continuation = 'codim2' only")
     if "jacobian" in options and options["jacobian"] not in ("linearised", "differences"):
         raise ValueError(f"[task] jacobian must be 'linearised' or 'differences', got "
                          f"{options['jacobian']!r}")  # fmt: skip
