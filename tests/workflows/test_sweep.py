@@ -119,6 +119,15 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
             "form applies to continuation = 'codim2' only",
         ),
         (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
+            'continuation = "trace"\ncusps = true\n',
+            "cusps applies to continuation = 'codim2' only",
+        ),
+        (
+            '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\ncusps = 1\n',
+            "cusps must be bool, got 1",
+        ),
+        (
             '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[task]\njacobian = "x"\n',
             "jacobian",
         ),

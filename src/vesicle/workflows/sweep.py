@@ -304,7 +304,7 @@ _TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
                "points": (int,), "type_tol": (int, float),
                "locate_type_change": (bool,), "ellipsoid": (bool,), "psi": (str, list),
                "lams": (str, list), "orientation": (str,), "coarse": (bool,),
-               "continuation": (str,), "form": (str,)}  # fmt: skip
+               "continuation": (str,), "form": (str,), "cusps": (bool,)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
@@ -506,8 +506,6 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
                                      "its own tolerance)")  # fmt: skip
             if options.get("form", "spec") not in FORMS:
                 raise ValueError(f"[task] form must be one of {FORMS}, got {options['form']!r}")
-            if not isinstance(options.get("cusps", False), bool):
-                raise ValueError(f"[task] cusps must be true or false, got {options['cusps']!r}")
         else:
             for key in ("form", "cusps"):
                 if key in options:
