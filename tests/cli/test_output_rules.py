@@ -157,3 +157,20 @@ def test_run_files_have_flat_parameters_and_l_m_coordinates(tmp_path):
 
     series = xr.open_dataset(out, group="series", engine="h5netcdf")
     assert series.attrs["lam"] == 3.0 and series.attrs["vesicle_version"] == vs.__version__
+
+
+def test_the_recorded_command_spells_options_as_they_are_typed():
+    """Files record the command that made them (``command``): it must run as written. The
+    parameter ``chi_text`` is the option ``--chi``; a flag stays a flag."""
+    from vesicle.cli import main
+    from vesicle.cli.base import command_line
+
+    args = ["--v", "0.9", "--chi", "2:8", "--points", "4", "--no-type-change", "--cusps"]
+    ctx = main.commands["neutral"].make_context("vesicle neutral", list(args))
+    line = command_line(ctx)
+    assert line.startswith("vesicle neutral ")
+    assert "--chi 2:8" in line and "--chi-text" not in line
+    assert "--no-type-change" in line and "--cusps" in line
+    # parsed again it gives the same parameters
+    again = main.commands["neutral"].make_context("vesicle neutral", line.split()[2:])
+    assert again.params == ctx.params

@@ -68,12 +68,24 @@ def configure_logging(level: int) -> logging.Handler | None:
 def command_line(ctx: click.Context) -> str:
     """The command as given: its path and the options set on the command line."""
     parts = [ctx.command_path]
+    declared = {p.name: p for p in ctx.command.params}
     for name, value in ctx.params.items():
         if ctx.get_parameter_source(name) != click.core.ParameterSource.COMMANDLINE:
             continue
-        option = "--" + name.replace("_", "-")
+        param = declared.get(name)
+        if isinstance(param, click.Argument):
+            parts.append(shlex.quote(str(value)))
+            continue
+        # the option as it is spelled (``--chi`` for the parameter chi_text), not its name
+        longs = [o for o in getattr(param, "opts", ()) if o.startswith("--")]
+        option = longs[0] if longs else "--" + name.replace("_", "-")
         if isinstance(value, bool):
-            parts.append(option if value or name.startswith("no_") else f"--no-{option[2:]}")
+            off = [o for o in getattr(param, "secondary_opts", ()) if o.startswith("--")]
+            if value or not off:
+                parts.append(option if value or name.startswith("no_") else
+                             f"--no-{option[2:]}")  # fmt: skip
+            else:
+                parts.append(off[0])
         else:
             parts.append(f"{option} {shlex.quote(str(value))}")
     return " ".join(parts)
