@@ -19,6 +19,7 @@ from pathlib import Path
 import click
 
 from vesicle._version import __version__
+from vesicle.blas import one_blas_thread
 from vesicle.io.files import stamped
 from vesicle.workflows.costs import command_help
 
@@ -46,6 +47,10 @@ def main(verbose: int) -> None:
     the measured costs of :mod:`vesicle.workflows.costs`, the one table the README and docs
     quote."""
     configure_logging(logging.WARNING - 10 * min(verbose, 2))
+    try:
+        one_blas_thread()
+    except ValueError as err:
+        fail(str(err))
 
 
 def configure_logging(level: int) -> logging.Handler | None:
