@@ -57,7 +57,8 @@ def discretisation_options(names=("grid", "degree", "n_rot", "backend", "method"
         "method": click.option("--method", type=click.Choice(METHODS), default=_D.method,
                                show_default=True, help="Layer potentials assembled or not."),
         "threads": click.option("--threads", type=int, default=None,
-                                help="Threads over latitude rings in assembly [default: <= 2]."),
+                                help="Threads over latitude rings in assembly [default: 1 on grids "
+                                "of 16 latitudes or fewer, else <= 2]."),
     }  # fmt: skip
     return _apply([table[n] for n in names])
 

@@ -185,7 +185,8 @@ class Discretisation(_Frozen):
     method : {"assembled", "matrix-free"}
         Dense operators per shape, or rotation of every density.
     workers : int or None
-        Threads over latitude rings in assembly (default ``min(2, cpus)``).
+        Threads over latitude rings in assembly (default: ``VESICLE_THREADS``, else 1 on grids
+        of 16 latitudes or fewer, else ``min(2, cpus)``).
     """
 
     grid: int = 32

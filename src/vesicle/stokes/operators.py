@@ -55,15 +55,28 @@ SHAPE_STEP = 1e-5
 KERNELS = ("single", "double")
 
 
-def _default_workers() -> int:
+#: Grids with at most this many latitudes get one thread by default (see :func:`_default_workers`).
+ONE_THREAD_GRID = 16
+
+
+def _default_workers(n_theta: int | None = None) -> int:
     """Assembly threads when not given: ``VESICLE_THREADS`` if set (the sweep engine's workers
-    set it to 1: a process per core), else the cores, at most 2."""
+    set it to 1: a process per core); else one on grids of at most :data:`ONE_THREAD_GRID`
+    latitudes, the cores (at most 2) on finer ones.
+
+    Measured on this 2-core machine, alone (docs/reference/performance.md): ``vesicle neutral
+    --v 0.98 --degree 4 --grid 16`` (13 chi) 36 s on one thread against 80 s on two, where a
+    single ``vesicle tt --stability`` at the same resolution takes 2.5 s either way; at N = 6
+    on 24x48 that state takes 6.0 s on two threads against 7.1 s on one, at N = 8 on 32x64
+    17 s against 24 s, and a short N = 8 neutral curve 85 s against 93 s."""
     env = os.environ.get("VESICLE_THREADS", "").strip()
     if env:
         try:
             return max(1, int(env))
         except ValueError:
             raise ValueError(f"VESICLE_THREADS must be a whole number, got {env!r}") from None
+    if n_theta is not None and n_theta <= ONE_THREAD_GRID:
+        return 1
     return max(1, min(2, os.cpu_count() or 1))
 
 
@@ -110,7 +123,7 @@ class LayerPotentials:
         self.shape = shape
         self.method = method
         self.quad: SingularQuadrature = singular_quadrature(shape.grid.n_theta, n_rot)
-        self.workers = _default_workers() if workers is None else int(workers)
+        self.workers = _default_workers(shape.grid.n_theta) if workers is None else int(workers)
         self.timings: dict[str, float] = {}
         self._tri = self.quad.packed
 
