@@ -164,13 +164,14 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         when="2026-12-03, the other core busy",
         source="docs/notes/continuation-measurements.md",
     ),
-    # docs/notes/codim2-measurements.md *The N = 8 curves under 20 min* (2026-12-06, fifth
-    # session, alone, /usr/bin/time; 202 s in the fourth session, 364 s in the second).
+    # docs/notes/codim2-measurements.md *One thread on small grids* (2026-12-06, sixth
+    # session, alone, /usr/bin/time; 129 s in the fifth session on two threads, 202 s in the
+    # fourth, 364 s in the second).
     "neutral_codim2_13": Cost(
         command="vesicle neutral --v 0.95 --chi 0.1:10 --points 13 --degree 4 --grid 16",
-        figure="2 min",
+        figure="1 min",
         resolution="N = 4 on 16x32, v = 0.95 (BT point, type change and 13 located points)",
-        measured="129 s",
+        measured="66.1 s",
         when="2026-12-06, alone",
         source="docs/notes/codim2-measurements.md",
     ),
