@@ -149,3 +149,26 @@ def test_where_the_fold_curve_turns_in_chi_the_curve_ends_and_is_said_to():
     (fail,) = curve.failed
     assert fail["chi"] == 0.1 and "turns back" in fail["error"] and "no stable" in fail["error"]
     assert not curve.cusp_points
+
+
+def test_an_interruption_carries_the_curves_traced_so_far():
+    """Ctrl-C at the Hopf curve's first point (v = 0.98, N = 4 on 12x24: Hopf points only):
+    CurveInterrupted (a KeyboardInterrupt) carries that curve with its point, marked
+    incomplete; nothing is picked as a neutral point."""
+    from vesicle.bifurcation.neutral_codim2 import CurveInterrupted
+
+    def progress(d):
+        if "lam" in d and "curve" in d:  # a point of a curve under way
+            raise KeyboardInterrupt
+
+    with pytest.raises(CurveInterrupted) as err:
+        neutral_curve_codim2(vs.Physics(v=0.98), [1.0, 2.0], vs.Discretisation(grid=12, degree=4),
+                             progress=progress)  # fmt: skip
+    assert isinstance(err.value, KeyboardInterrupt)
+    partial = err.value.partial
+    assert partial["interrupted"] and partial["complete"] is False
+    (curve,) = partial["curves"]
+    assert curve["kind"] == "hopf" and curve["end"] == "interrupted"
+    (point,) = curve["points"]
+    assert point["converged"] and 11 < point["lam"] < 14  # v = 0.98's Hopf curve, 12.7 at chi = 1
+    assert "points" not in partial

@@ -174,3 +174,31 @@ def test_the_recorded_command_spells_options_as_they_are_typed():
     # parsed again it gives the same parameters
     again = main.commands["neutral"].make_context("vesicle neutral", line.split()[2:])
     assert again.params == ctx.params
+
+
+def test_an_interrupted_codim2_curve_keeps_what_it_traced_in_out(tmp_path, monkeypatch):
+    """Ctrl-C during the two-parameter continuation: the curves traced so far go to --out
+    (complete: false, stamped), and the message says so; without --out it says nothing was
+    kept and how to keep it."""
+    from vesicle.bifurcation.neutral_codim2 import CurveInterrupted
+
+    partial = {"complete": False, "interrupted": True, "method": "codim2", "v": 0.95,
+               "curves": [{"kind": "hopf", "end": "interrupted",
+                           "points": [{"curve": "hopf", "chi": 1.0, "lam": 8.3,
+                                       "omega_R": 0.39, "converged": True,
+                                       "other_unstable": False}]}],
+               "bt_points": [], "cusp_points": [], "turn_points": [], "failed": []}  # fmt: skip
+
+    def stop(*args, **kwargs):
+        raise CurveInterrupted(partial)
+
+    monkeypatch.setattr(cli_steady, "neutral_curve_codim2", stop)
+    out = tmp_path / "n.json"
+    r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out))
+    assert r.exit_code == 130 and "curves traced so far (1, 1 points" in r.output
+    data = json.loads(out.read_text())
+    assert data["interrupted"] and data["complete"] is False and "vesicle_version" in data
+    assert data["curves"][0]["points"][0]["lam"] == 8.3 and "lam" not in data["physics"]
+    assert data["command"].split(" ", 1)[1].startswith("neutral --chi 1,2")
+    r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8")
+    assert r.exit_code == 130 and "nothing was kept: give --out" in r.output

@@ -75,7 +75,7 @@ from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, steady_tank_treading
 from vesicle.steady.stability import stability
 
-__all__ = ["DEFAULT_SETTINGS", "neutral_curve_codim2"]
+__all__ = ["DEFAULT_SETTINGS", "CurveInterrupted", "neutral_curve_codim2"]
 
 log = logging.getLogger(__name__)
 
@@ -247,6 +247,8 @@ class _Context:
     #: the last stable steady state of each first-loss search, as (chi, lam, discretisation,
     #: shape): the starts of later searches (shapes only: a state keeps its problem's operators)
     stable: list = field(default_factory=list)
+    #: the points of the curve under way (what an interruption keeps of it)
+    current: list = field(default_factory=list)
 
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
@@ -672,7 +674,8 @@ def _continue(ctx: _Context, start: codim2.CurvePoint | codim2.SpecialPoint, kin
 
         curve = trace(ctx.eq, start, direction=d, bounds=ctx.bounds, max_points=ctx.max_points,
                       settings=ctx.settings, stop=stop, landing=ctx.landing, give_up=give_up,
-                      progress=lambda q, kind=kind: ctx.say(_point_summary(kind, q)))  # fmt: skip
+                      progress=lambda q, kind=kind: _progress(ctx, kind, q))  # fmt: skip
+        ctx.current = []
         ctx.curves.append(_Curve(kind, curve))
         log.info("%s curve: %d points, end %s", kind, len(curve.points), curve.end)
         for sp in curve.special:
@@ -723,6 +726,41 @@ def _guarded_continue(ctx: _Context, start: codim2.CurvePoint, failed: list[dict
         log.warning("the %s curve from chi = %.4g stopped: %s", start.kind, chi, err)
         failed.append({"chi": None, "error": f"the {start.kind} curve from chi = {chi:.6g} "
                                              f"stopped: {err}"})  # fmt: skip
+
+
+def _progress(ctx: _Context, kind: str, q: codim2.CurvePoint) -> None:
+    """A new point of the curve under way: kept for an interruption, then reported."""
+    summary = _point_summary(kind, q)
+    ctx.current.append(summary)
+    ctx.say(summary)
+
+
+class CurveInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or SIGTERM, which the command line turns into one) during
+    :func:`neutral_curve_codim2`; ``partial`` is what was found (:func:`_partial`)."""
+
+    def __init__(self, partial: dict):
+        super().__init__("the neutral curve was interrupted")
+        self.partial = partial
+
+
+def _partial(ctx: _Context, chis: Sequence[float], failed: list[dict]) -> dict:
+    """What an interrupted curve had found: every fold and Hopf curve traced so far (and the
+    points of the one under way) with each point's ``converged`` and ``other_unstable``, and the
+    special points located.  No neutral point is picked from them (that needs the type change
+    and the rule of the module notes): ``complete`` is false, and the command is run again
+    (the continuation does not resume)."""
+    curves = [{"kind": c.kind, "end": c.curve.end,
+               "points": [_point_summary(c.kind, q) for q in c.curve.points]}
+              for c in ctx.curves]  # fmt: skip
+    if ctx.current:
+        curves.append({"kind": ctx.current[0]["curve"], "end": "interrupted",
+                       "points": list(ctx.current)})  # fmt: skip
+    return {"complete": False, "interrupted": True, "method": "codim2",
+            "v": float(ctx.physics.v), "orientation": ctx.orientation, "modes": ctx.modes,
+            "chi_requested": [float(c) for c in chis], "curves": curves,
+            "bt_points": _special_dicts(ctx, "bt"), "cusp_points": _special_dicts(ctx, "cusp"),
+            "turn_points": _special_dicts(ctx, "turn"), "failed": list(failed)}  # fmt: skip
 
 
 def _point_summary(kind: str, q: codim2.CurvePoint) -> dict:
@@ -997,78 +1035,82 @@ def neutral_curve_codim2(
     ctx.curves_eq = eq
     ctx.cusps = bool(cusps)
     failed: list[dict] = []
-    seed = _seed(ctx, seed_chi)
-    if not seed.converged:
-        raise NewtonError(f"the critical point at chi = {seed_chi:g} did not converge "
-                          f"(residual {seed.residual:.2e})")  # fmt: skip
-    say({"seed": _point_summary(seed.kind, seed)})
-    _guarded_continue(ctx, seed, failed)
-    tried: set[float] = {seed_chi}
-    edge = chis[0] if side > 0 else chis[-1]
-    for _ in range(4):
-        # a new seed where requested chi are not covered yet, else at the low-chi edge (high
-        # for the vorticity branch): the curves found so far may belong to another sheet
-        # than the branch from low lambda there (v = 0.95 between the BT point and the type
-        # change: the Hopf curve is the upper sheet's, the lower sheet folds first)
-        missing = [c for c in chis if _winner(ctx.curves, c, side) is None and c not in tried]
-        if missing:
-            c = missing[0] if side > 0 else missing[-1]
-        elif edge not in tried:
-            c = edge
-        else:
-            break
-        tried.add(c)
-        turn = _turn_beyond(ctx, c)
-        coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
-        try:
-            if turn is not None and coarse is not None:  # past where the folds end: the
-                # search at the coarse resolution only (one that finds nothing steps the whole box)
-                point = _coarse_first_loss(ctx, c, _start_lambda(ctx, c))
-                if point is None:
-                    raise NewtonError("the search at N = 4 on 16x32 found none")
+    try:
+        seed = _seed(ctx, seed_chi)
+        if not seed.converged:
+            raise NewtonError(f"the critical point at chi = {seed_chi:g} did not converge "
+                              f"(residual {seed.residual:.2e})")  # fmt: skip
+        say({"seed": _point_summary(seed.kind, seed)})
+        _guarded_continue(ctx, seed, failed)
+        tried: set[float] = {seed_chi}
+        edge = chis[0] if side > 0 else chis[-1]
+        for _ in range(4):
+            # a new seed where requested chi are not covered yet, else at the low-chi edge (high
+            # for the vorticity branch): the curves found so far may belong to another sheet
+            # than the branch from low lambda there (v = 0.95 between the BT point and the type
+            # change: the Hopf curve is the upper sheet's, the lower sheet folds first)
+            missing = [c for c in chis if _winner(ctx.curves, c, side) is None and c not in tried]
+            if missing:
+                c = missing[0] if side > 0 else missing[-1]
+            elif edge not in tried:
+                c = edge
             else:
-                point = _loss(ctx, c, _start_lambda(ctx, c))
-        except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
-            note = "" if turn is None else (
-                f"; the fold curve turns back at chi = {math.exp(turn.point.p[0]):.6g}, "
-                f"lambda = {turn.point.p[1]:.6g} (located): no fold of it lies beyond")
-            failed.append({"chi": c, "error": f"no critical point: {err}{note}"})
-            log.warning("neutral curve: no critical point at chi = %.4g: %s%s", c, err, note)
-            continue
-        if not point.converged:
-            failed.append({"chi": c, "error": f"the {point.kind} point did not converge "
-                                              f"(residual {point.residual:.2e})"})
-            continue
-        if any(k.kind == point.kind and abs(k.lam - point.p[1]) <= 1e-5 * max(1.0, k.lam)
-               for k in _candidates(ctx.curves, c)):  # fmt: skip
-            say({"chi": c, "first_loss": f"on the {point.kind} curve already traced"})
-            continue
-        say({"seed": _point_summary(point.kind, point)})
-        _guarded_continue(ctx, point, failed)
-    change = _type_change(ctx, chis)[0] if locate_type_change else None
-    points = []
-    for c in chis:
-        t1 = time.perf_counter()
-        cand = _winner(ctx.curves, c, side)
-        if cand is None:
-            if not any(f["chi"] == c for f in failed):
-                failed.append({"chi": c, "error": "no fold or Hopf curve reaches this chi "
-                                                  "without another unstable eigenvalue"})
-            continue
-        lower = None
-        if cand.kind == "hopf":
-            folds = [k for k in _candidates(ctx.curves, c) if k.kind == "fold"
-                     and side * (cand.lam - k.lam) > 0]  # fmt: skip
-            lower = max(folds, key=lambda k: side * k.lam) if folds else None
-        point = _report(ctx, c, cand, t1, lower)
-        points.append(point)
-        say({"point": point.to_dict()})
-    # a chi reported in the end is not a failure (an edge seed that failed where a curve
-    # already reached); the failures of the curves themselves stay (chi = None)
-    reported = {p.chi for p in points}
-    failed = [f for f in failed if f["chi"] not in reported]
-    return NeutralCurve(physics, disc, points, change, [], time.perf_counter() - t0, failed,
-                        orientation, modes, ctx.settings.ftol, 0, method="codim2",
-                        bt_points=_special_dicts(ctx, "bt"),
-                        cusp_points=_special_dicts(ctx, "cusp"),
-                        turn_points=_special_dicts(ctx, "turn"), form=form)  # fmt: skip
+                break
+            tried.add(c)
+            turn = _turn_beyond(ctx, c)
+            coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
+            try:
+                if turn is not None and coarse is not None:  # past where the folds end: the
+                    # search at the coarse resolution only (one that finds nothing steps the
+                    # whole box)
+                    point = _coarse_first_loss(ctx, c, _start_lambda(ctx, c))
+                    if point is None:
+                        raise NewtonError("the search at N = 4 on 16x32 found none")
+                else:
+                    point = _loss(ctx, c, _start_lambda(ctx, c))
+            except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
+                note = "" if turn is None else (
+                    f"; the fold curve turns back at chi = {math.exp(turn.point.p[0]):.6g}, "
+                    f"lambda = {turn.point.p[1]:.6g} (located): no fold of it lies beyond")
+                failed.append({"chi": c, "error": f"no critical point: {err}{note}"})
+                log.warning("neutral curve: no critical point at chi = %.4g: %s%s", c, err, note)
+                continue
+            if not point.converged:
+                failed.append({"chi": c, "error": f"the {point.kind} point did not converge "
+                                                  f"(residual {point.residual:.2e})"})
+                continue
+            if any(k.kind == point.kind and abs(k.lam - point.p[1]) <= 1e-5 * max(1.0, k.lam)
+                   for k in _candidates(ctx.curves, c)):  # fmt: skip
+                say({"chi": c, "first_loss": f"on the {point.kind} curve already traced"})
+                continue
+            say({"seed": _point_summary(point.kind, point)})
+            _guarded_continue(ctx, point, failed)
+        change = _type_change(ctx, chis)[0] if locate_type_change else None
+        points = []
+        for c in chis:
+            t1 = time.perf_counter()
+            cand = _winner(ctx.curves, c, side)
+            if cand is None:
+                if not any(f["chi"] == c for f in failed):
+                    failed.append({"chi": c, "error": "no fold or Hopf curve reaches this chi "
+                                                      "without another unstable eigenvalue"})
+                continue
+            lower = None
+            if cand.kind == "hopf":
+                folds = [k for k in _candidates(ctx.curves, c) if k.kind == "fold"
+                         and side * (cand.lam - k.lam) > 0]  # fmt: skip
+                lower = max(folds, key=lambda k: side * k.lam) if folds else None
+            point = _report(ctx, c, cand, t1, lower)
+            points.append(point)
+            say({"point": point.to_dict()})
+        # a chi reported in the end is not a failure (an edge seed that failed where a curve
+        # already reached); the failures of the curves themselves stay (chi = None)
+        reported = {p.chi for p in points}
+        failed = [f for f in failed if f["chi"] not in reported]
+        return NeutralCurve(physics, disc, points, change, [], time.perf_counter() - t0, failed,
+                            orientation, modes, ctx.settings.ftol, 0, method="codim2",
+                            bt_points=_special_dicts(ctx, "bt"),
+                            cusp_points=_special_dicts(ctx, "cusp"),
+                            turn_points=_special_dicts(ctx, "turn"), form=form)  # fmt: skip
+    except KeyboardInterrupt as err:  # Ctrl-C or SIGTERM: what was found goes with it
+        raise CurveInterrupted(_partial(ctx, chis, failed)) from err

@@ -13,7 +13,7 @@ from vesicle.bifurcation.branch import branch, reach
 from vesicle.bifurcation.checkpoint import Checkpoint, states_folder
 from vesicle.bifurcation.critical import critical_lambda, critical_summary
 from vesicle.bifurcation.neutral import neutral_curve
-from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
+from vesicle.bifurcation.neutral_codim2 import CurveInterrupted, neutral_curve_codim2
 from vesicle.cli.base import (
     check_output,
     check_scheduler,
@@ -31,7 +31,7 @@ from vesicle.cli.options import (
     make_physics,
     physics_options,
 )
-from vesicle.io.files import write_text_atomically
+from vesicle.io.files import stamped, write_text_atomically
 from vesicle.model.parameters import Physics
 from vesicle.parallel import executor
 from vesicle.ranges import parse_range
@@ -455,8 +455,18 @@ def _clear_states(folder: Path, resume: bool, overwrite: bool) -> None:
 def _neutral_kept(out: str | None, states: str | None, method: str = "trace") -> str:
     """What an interrupted ``vesicle neutral`` kept, and how to go on."""
     if method == "codim2":
-        return ("nothing was kept: the two-parameter continuation writes its curve when it is "
-                "complete (--continuation trace keeps each point as it is found)")
+        try:
+            data = json.loads(Path(out).read_text()) if out is not None else {}
+        except (OSError, ValueError):
+            data = {}
+        if data.get("interrupted"):
+            n = sum(len(c["points"]) for c in data.get("curves", []))
+            return (f"the curves traced so far ({len(data.get('curves', []))}, {n} points; "
+                    f"complete: false) are in {out}; the two-parameter continuation does not "
+                    "resume: run the command again (--overwrite) for the neutral points")
+        return ("nothing was kept" + ("" if out is None else f" in {out}") + ": give --out to "
+                "keep the curves traced so far on an interruption (--continuation trace keeps "
+                "each point as it is found and resumes)")
     if out is None and states is None:
         return "nothing was kept (give --out to keep each point as it is found)"
     if out is None:
@@ -481,6 +491,14 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
                                      jacobian=jacobian, form=form,
                                      locate_type_change=type_change, cusps=cusps,
                                      progress=_echo_progress)  # fmt: skip
+    except CurveInterrupted as err:  # what was found is kept, then the interruption goes on
+        if out is not None:
+            write_text_atomically(out, json.dumps(
+                stamped({**err.partial, "command": command_line(ctx)},
+                        physics={k: x for k, x in physics.to_dict().items()
+                                 if k not in ("lam", "chi")},
+                        discretisation=disc), indent=1))  # fmt: skip
+        raise
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
     result = {**curve.to_dict(), "command": command_line(ctx)}
