@@ -1230,13 +1230,13 @@ def _spectrum(J, ev, kind: str, omega: float, s: Settings):
     return eig[order][: s.n_eigenvalues], other
 
 
-def _admissible_target(ev, J, s: Settings, eig: np.ndarray, target: float | None) -> complex:
+def _admissible_target(ev, J, s: Settings, target: float | None) -> complex:
     """The eigenvalue the borders start from: of the problem's spectrum pencil where it has
     one (so that a neutral symmetry mode, absent from that pencil, is not taken for the
     critical one), nearest ``target`` (``None``: the complex one nearest the imaginary axis);
-    without such a pencil, ``target`` itself (or the nearest of ``eig``)."""
+    without such a pencil, ``target`` itself."""
     if not ev.own_pencil:
-        return target if target is not None else eig[int(np.argmin(np.abs(eig.real)))]
+        return target
     admissible = finite_eigenvalues(*ev.spectrum_pencil(J), s.finite_ratio)
     if target is None:
         upper = admissible[admissible.imag > 1e-8 * max(1.0, float(np.max(np.abs(admissible))))]
@@ -1375,7 +1375,7 @@ def locate_fold(
         eig, vl, vr = _pencil_vectors(J, ev.B, s.finite_ratio)
         if eig.size == 0:
             raise ValueError("the pencil has no finite eigenvalue")
-        i = int(np.argmin(np.abs(eig - _admissible_target(ev, J, s, eig, 0.0))))
+        i = int(np.argmin(np.abs(eig - _admissible_target(ev, J, s, 0.0))))
         v = _realify(vr[:, i]) if v is None else v
         w = _realify(vl[:, i]) if w is None else w
     b, c = _unit(np.asarray(w, float)), _unit(np.asarray(v, float))
@@ -1433,11 +1433,10 @@ def locate_hopf(
         upper = np.flatnonzero(eig.imag > 1e-8 * max(1.0, float(np.max(np.abs(eig)))))
         if upper.size == 0:
             raise ValueError("the pencil has no complex eigenvalue: not near a Hopf point")
-        if omega is None:
-            i = upper[int(np.argmin(np.abs(eig[upper].real)))]
-            if ev.own_pencil:  # the pair nearest the axis among the admissible modes
-                i = upper[int(np.argmin(np.abs(
-                    eig[upper] - _admissible_target(ev, J, s, eig[upper], None))))]
+        if omega is None:  # the pair nearest the axis (among the admissible modes)
+            distance = (np.abs(eig[upper] - _admissible_target(ev, J, s, None)) if ev.own_pencil
+                        else np.abs(eig[upper].real))  # fmt: skip
+            i = upper[int(np.argmin(distance))]
             omega = float(eig[i].imag)
         else:
             i = upper[int(np.argmin(np.abs(eig[upper] - 1j * omega)))]
@@ -1521,7 +1520,7 @@ def locate_bt(
         eig, vl, vr = _pencil_vectors(J, ev.B, s.finite_ratio)
         if eig.size == 0:
             raise ValueError("the pencil has no finite eigenvalue")
-        i = int(np.argmin(np.abs(eig - _admissible_target(ev, J, s, eig, 0.0))))
+        i = int(np.argmin(np.abs(eig - _admissible_target(ev, J, s, 0.0))))
         v = _realify(vr[:, i]) if v is None else v
         w = _realify(vl[:, i]) if w is None else w
     b, c = _unit(np.asarray(w, float)), _unit(np.asarray(v, float))

@@ -112,8 +112,8 @@ COSTS: MappingProxyType[str, Cost] = MappingProxyType({
         when="2026-12-06; the install is not included",
         source="issue 38's session (measured with /usr/bin/time)",
     ),
-    # The README's quick-start command 2, from a fresh clone (docs/notes/codim2-measurements.md
-    # *Speed*; before: issue 38, CI's pytest 8 min 27 s for 479 tests).
+    # The README's quick-start command 2, from a fresh clone (docs/notes/codim2-measurements.md,
+    # end of the sixth session; 10 min 21 s for 861 tests before one thread on small grids).
     "tests": Cost(
         command="OPENBLAS_NUM_THREADS=1 python -m pytest -q",
         figure="about 8 min",
