@@ -441,7 +441,7 @@ def test_a_smooth_turn_of_p0_is_located_and_a_cusp_is_not_taken_for_one():
     assert curve.end == "bounds" and p[-1, 1] < -1.0
     [turn] = curve.special
     assert turn.kind == "turn" and turn.located
-    # located to 1e-4 in arclength (codim2._TURN_XTOL): p0, stationary there, to its square
+    # located to 1e-4 in arclength (codim2.curves._TURN_XTOL): p0, stationary there, to its square
     assert abs(turn.point.p[0]) < EXACT and abs(turn.point.p[1]) < 1e-4
     assert abs(turn.test) < 1e-4 and turn.residual < 1e-4
     assert all(abs(q.tests["cusp"]) > 0.1 for q in curve.points)
@@ -610,13 +610,14 @@ def test_newton_rows_of_the_test_functions_match_differences(name):
     x, p = problem.to_u([0.3, 0.1, 0.2, 0.1, -0.1]), np.array([0.05, -0.4])
     b, c = rng.standard_normal(n), rng.standard_normal(n)
     if name == "hopf":
-        system = codim2._MinAugHopf(n, problem.mass, b + 1j * rng.standard_normal(n), c + 0j)
+        b = b + 1j * rng.standard_normal(n)
+        system = codim2.systems._MinAugHopf(n, problem.mass, b, c + 0j)
         u = np.concatenate([x, p, [0.7]])
     else:
-        cls = codim2._MinAugFold if name == "fold" else codim2._BogdanovTakens
+        cls = codim2.systems._MinAugFold if name == "fold" else codim2.systems._BogdanovTakens
         system = cls(n, problem.mass, b, c)
         u = np.concatenate([x, p])
-    ev = codim2._Evaluator(problem, n, "central")
+    ev = codim2.core._Evaluator(problem, n, "central")
     _, _, ctx = system.evaluate(u, problem.jacobian(x, p))
     for d in rng.standard_normal((3, n + 2)):
         h = 1e-6
