@@ -24,9 +24,50 @@ from collections.abc import Iterator
 from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 
-__all__ = ["close_cluster", "executor", "local_cluster"]
+__all__ = [
+    "ONE_THREAD_GRID",
+    "close_cluster",
+    "executor",
+    "grid_threads",
+    "local_cluster",
+    "threads_from_environment",
+]
 
 log = logging.getLogger(__name__)
+
+
+#: Grids with at most this many latitudes get one assembly thread by default (:func:`grid_threads`).
+ONE_THREAD_GRID = 16
+
+
+def threads_from_environment() -> int | None:
+    """``VESICLE_THREADS`` (assembly threads per process), or ``None`` when unset: the one place
+    the package reads it.  The sweep engine's workers have it set to 1 (a process per core,
+    :func:`local_cluster`); set it on your own cluster's workers for the same.  It is read when a
+    :class:`~vesicle.model.parameters.Discretisation` without ``workers`` gives the layer
+    potentials their options (:meth:`~vesicle.model.parameters.Discretisation.assembly_threads`),
+    in the process that assembles."""
+    text = os.environ.get("VESICLE_THREADS", "").strip()
+    if not text:
+        return None
+    try:
+        return max(1, int(text))
+    except ValueError:
+        raise ValueError(f"VESICLE_THREADS must be a whole number, got {text!r}") from None
+
+
+def grid_threads(n_theta: int | None = None) -> int:
+    """The default assembly threads of a grid: one on grids of at most :data:`ONE_THREAD_GRID`
+    latitudes, the cores (at most 2) on finer ones.
+
+    Measured on this 2-core machine, alone (docs/reference/performance.md): ``vesicle neutral
+    --v 0.98 --degree 4 --grid 16`` (13 chi) 36 s on one thread against 80 s on two, where a
+    single ``vesicle tt --stability`` at the same resolution takes 2.5 s either way; at N = 6
+    on 24x48 that state takes 6.0 s on two threads against 7.1 s on one, at N = 8 on 32x64
+    17 s against 24 s, and a short N = 8 neutral curve 85 s against 93 s."""
+    if n_theta is not None and n_theta <= ONE_THREAD_GRID:
+        return 1
+    return max(1, min(2, os.cpu_count() or 1))
 
 
 def local_cluster(workers: int):

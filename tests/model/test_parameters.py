@@ -178,3 +178,26 @@ def test_a_flow_without_y_symmetry_is_refused_by_newton():
     sheared_in_y = [[0, 1, 0], [0, 0, 0], [0, 0, 0]]  # (y, 0, 0): breaks y -> -y
     with pytest.raises(ValueError, match="y -> -y"):
         vs.steady_tank_treading(vs.Physics(flow=sheared_in_y), vs.Discretisation(16, 4))
+
+
+def test_assembly_threads_are_resolved_by_the_discretisation(monkeypatch):
+    """``workers`` if given; else ``VESICLE_THREADS`` of the process that assembles; else one
+    thread on grids of at most 16 latitudes and the cores (at most 2) above (the rule of
+    docs/reference/performance.md).  The layer potentials themselves read no environment."""
+    import os
+
+    from vesicle.parallel import grid_threads
+
+    monkeypatch.delenv("VESICLE_THREADS", raising=False)
+    cores = max(1, min(2, os.cpu_count() or 1))
+    assert vs.Discretisation(grid=16, degree=4).assembly_threads() == 1
+    assert vs.Discretisation(grid=32, degree=8).assembly_threads() == cores
+    assert vs.Discretisation(grid=32, workers=3).assembly_threads() == 3
+    assert vs.Discretisation(grid=32).operator_options()["workers"] == cores
+    monkeypatch.setenv("VESICLE_THREADS", "1")
+    assert vs.Discretisation(grid=32).assembly_threads() == 1
+    assert vs.Discretisation(grid=32, workers=2).assembly_threads() == 2
+    assert grid_threads(32) == cores  # the rule alone: what LayerPotentials(workers=None) uses
+    monkeypatch.setenv("VESICLE_THREADS", "two")
+    with pytest.raises(ValueError, match="VESICLE_THREADS must be a whole number"):
+        vs.Discretisation(grid=32).assembly_threads()

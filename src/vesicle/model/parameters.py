@@ -24,6 +24,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from vesicle.model.flows import FLOWS, LinearFlow
+from vesicle.parallel import grid_threads, threads_from_environment
 from vesicle.stokes.backends import BACKENDS
 
 __all__ = ["Discretisation", "Physics", "SolverTolerances", "stable_key"]
@@ -185,8 +186,8 @@ class Discretisation(_Frozen):
     method : {"assembled", "matrix-free"}
         Dense operators per shape, or rotation of every density.
     workers : int or None
-        Threads over latitude rings in assembly (default: ``VESICLE_THREADS``, else 1 on grids
-        of 16 latitudes or fewer, else ``min(2, cpus)``).
+        Threads over latitude rings in assembly (default: :meth:`assembly_threads`:
+        ``VESICLE_THREADS``, else 1 on grids of 16 latitudes or fewer, else ``min(2, cpus)``).
     """
 
     grid: int = 32
@@ -226,13 +227,23 @@ class Discretisation(_Frozen):
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
 
+    def assembly_threads(self) -> int:
+        """The threads over latitude rings that assembly uses: ``workers`` if given, else the
+        process's ``VESICLE_THREADS`` (:func:`vesicle.parallel.threads_from_environment`), else
+        the grid's default (:func:`vesicle.parallel.grid_threads`).  Resolved here, in the
+        process that assembles (a Dask worker's own setting applies to the work sent to it)."""
+        if self.workers is not None:
+            return self.workers
+        env = threads_from_environment()
+        return env if env is not None else grid_threads(self.grid)
+
     def operator_options(self) -> dict:
         """Keyword arguments of :class:`vesicle.stokes.LayerPotentials`."""
         return {
             "n_rot": self.n_rot,
             "backend": self.backend,
             "method": self.method,
-            "workers": self.workers,
+            "workers": self.assembly_threads(),
         }
 
 

@@ -20,7 +20,6 @@ available as :meth:`LayerPotentials.double_layer_of_constant` for tests.
 from __future__ import annotations
 
 import logging
-import os
 import time
 from concurrent.futures import ThreadPoolExecutor
 from functools import cached_property
@@ -30,6 +29,7 @@ from scipy.sparse.linalg import LinearOperator
 
 from vesicle.blas import blas_threads
 from vesicle.geometry.surface import Shape
+from vesicle.parallel import grid_threads
 from vesicle.sphere.transforms import transform
 from vesicle.stokes.backends import get_backend
 from vesicle.stokes.fused import ring_shape_difference
@@ -55,31 +55,6 @@ SHAPE_STEP = 1e-5
 KERNELS = ("single", "double")
 
 
-#: Grids with at most this many latitudes get one thread by default (see :func:`_default_workers`).
-ONE_THREAD_GRID = 16
-
-
-def _default_workers(n_theta: int | None = None) -> int:
-    """Assembly threads when not given: ``VESICLE_THREADS`` if set (the sweep engine's workers
-    set it to 1: a process per core); else one on grids of at most :data:`ONE_THREAD_GRID`
-    latitudes, the cores (at most 2) on finer ones.
-
-    Measured on this 2-core machine, alone (docs/reference/performance.md): ``vesicle neutral
-    --v 0.98 --degree 4 --grid 16`` (13 chi) 36 s on one thread against 80 s on two, where a
-    single ``vesicle tt --stability`` at the same resolution takes 2.5 s either way; at N = 6
-    on 24x48 that state takes 6.0 s on two threads against 7.1 s on one, at N = 8 on 32x64
-    17 s against 24 s, and a short N = 8 neutral curve 85 s against 93 s."""
-    env = os.environ.get("VESICLE_THREADS", "").strip()
-    if env:
-        try:
-            return max(1, int(env))
-        except ValueError:
-            raise ValueError(f"VESICLE_THREADS must be a whole number, got {env!r}") from None
-    if n_theta is not None and n_theta <= ONE_THREAD_GRID:
-        return 1
-    return max(1, min(2, os.cpu_count() or 1))
-
-
 class LayerPotentials:
     """Layer potentials of one shape, built once and applied many times.
 
@@ -92,7 +67,9 @@ class LayerPotentials:
     method : {"assembled", "matrix-free"}
         See the module docstring; "assembled" is faster beyond a few applies per shape.
     workers : int, optional
-        Threads over latitude rings (BLAS is held to one thread inside); default ``min(2, cpus)``.
+        Threads over latitude rings (BLAS is held to one thread inside); default
+        :func:`vesicle.parallel.grid_threads` (no environment is read here: a
+        :class:`~vesicle.model.parameters.Discretisation` resolves ``VESICLE_THREADS``).
     kernels : tuple of {"single", "double"}
         The operators the caller will apply: "assembled" builds them together, in one pass over
         the rings, on first need (an operator not listed is still available; it is then built
@@ -123,7 +100,7 @@ class LayerPotentials:
         self.shape = shape
         self.method = method
         self.quad: SingularQuadrature = singular_quadrature(shape.grid.n_theta, n_rot)
-        self.workers = _default_workers(shape.grid.n_theta) if workers is None else int(workers)
+        self.workers = grid_threads(shape.grid.n_theta) if workers is None else int(workers)
         self.timings: dict[str, float] = {}
         self._tri = self.quad.packed
 
