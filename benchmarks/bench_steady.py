@@ -104,7 +104,9 @@ def _continuation_and_critical(disc) -> dict:
               f"({w[0]:.8f}, {w[1]:.8f})")  # fmt: skip
     for name, coarse in (("before", None), ("default", "auto")):
         t0 = time.perf_counter()
-        c = vs.critical_lambda(vs.Physics(v=0.95, chi=1.0), disc, coarse=coarse)
+        c = vs.critical_lambda(
+            vs.Physics(v=0.95, chi=1.0), disc, search=vs.CriticalSearch(coarse=coarse)
+        )
         seconds = time.perf_counter() - t0
         coarse_evaluations = len(c.coarse.history) if c.coarse else 0
         out[f"critical_{name}"] = {"seconds": seconds, "lambda_c": c.lambda_c,

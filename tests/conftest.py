@@ -1,4 +1,13 @@
-"""Shared fixtures: a small converged state, and a stand-in for the neutral tracer's point."""
+"""Shared fixtures: the catalogue of states many tests use (computed once per session), and a
+stand-in for the neutral tracer's point.
+
+The catalogue (session scope; a state is read-only: tests that change one copy it first):
+
+- ``small_state``: v = 0.95, lam = 2, chi = 1 at N = 4 on 12x24;
+- ``table1_n4``: the SPEC §14 case (v = 0.95, lam = 8, chi = 10) at N = 4 on 16x32, by the
+  default Newton (linearised Jacobians, Broyden updates): the steady, rheology and linearisation
+  tests' state.
+"""
 
 import pytest
 
@@ -10,6 +19,13 @@ def small_state():
     """A converged state (N = 4 on 12x24) that the stand-in points carry as their start."""
     return vs.steady_tank_treading(vs.Physics(v=0.95, lam=2.0, chi=1.0),
                                    vs.Discretisation(grid=12, degree=4))  # fmt: skip
+
+
+@pytest.fixture(scope="session")
+def table1_n4():
+    """Table 1's parameters at N = 4 on 16x32 (SPEC §14), the default Newton."""
+    return vs.steady_tank_treading(vs.Physics(v=0.95, lam=8.0, chi=10.0),
+                                   vs.Discretisation(grid=16, degree=4))  # fmt: skip
 
 
 def _stand_in(state, calls, fail_above=None):

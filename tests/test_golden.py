@@ -33,8 +33,9 @@ class NewAPI:
     def table1_n4(self):
         p = vs.Physics(v=0.95, lam=8.0, chi=10.0)
         d = vs.Discretisation(grid=16, degree=4)
-        r = vs.steady_tank_treading(p, d, updates="none", jacobian="differences",
-                                    constraints="first-order")  # fmt: skip
+        r = vs.steady_tank_treading(
+            p, d, newton=vs.NewtonSettings(updates="none", constraints="first-order"),
+            analysis=vs.StabilitySettings(jacobian="differences"))  # fmt: skip
         # the reference path (differences, no Broyden, first-order constraints) that wrote them
         return vs.stability(r).omega
 

@@ -13,6 +13,7 @@ Measured 2026-11-22 on the 2-core machine (with other work running):
 import numpy as np
 import pytest
 
+import vesicle as vs
 from vesicle.dynamics.integrators import RunParameters
 from vesicle.dynamics.simulation import simulate
 from vesicle.geometry.diagnostics import fit_damped_oscillation
@@ -23,7 +24,9 @@ pytestmark = pytest.mark.slow
 
 
 def test_table1_row_at_N8():
-    r = steady_tank_treading(0.95, 8.0, 10.0, degree=8, grid=32)
+    r = steady_tank_treading(
+        vs.Physics(v=0.95, lam=8.0, chi=10.0), vs.Discretisation(grid=32, degree=8)
+    )
     w_r, w_i = stability(r).most_unstable
     assert w_r == pytest.approx(2.939, rel=0.01)
     assert w_i == pytest.approx(-0.08064, rel=0.05)
@@ -33,7 +36,9 @@ def test_table1_row_at_N8():
 @pytest.fixture(scope="module")
 def steady4():
     """The SPEC §14 case (v = 0.95, lam = 8, chi = 10) at N = 4 on 16 x 32."""
-    return steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
+    return steady_tank_treading(
+        vs.Physics(v=0.95, lam=8.0, chi=10.0), vs.Discretisation(grid=16, degree=4)
+    )
 
 
 def _run_from(shape, **changes):
@@ -97,8 +102,11 @@ def test_vorticity_branch_growth_agrees_with_time_stepping():
     from vesicle.geometry.surface import Shape
     from vesicle.model.parameters import Discretisation, Physics
 
-    r = steady_tank_treading(Physics(v=0.95, lam=11.0, chi=4.0), Discretisation(grid=12, degree=4),
-                             orientation="vorticity")  # fmt: skip
+    r = steady_tank_treading(
+        Physics(v=0.95, lam=11.0, chi=4.0),
+        Discretisation(grid=12, degree=4),
+        analysis=vs.StabilitySettings(orientation="vorticity"),
+    )
     problem = r.problem.replace(modes="general")
     a0 = problem.coefficients_of(r.shape)
     M, _ = problem.jacobian(a0, central=True)

@@ -12,6 +12,14 @@ from vesicle.model.flows import LinearFlow
 from vesicle.model.membrane import bending_energy, bending_force, membrane_force, tension_force
 from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
 from vesicle.model.rheology import ParticleStress
+from vesicle.model.settings import (
+    ContinuationSettings,
+    CriticalSearch,
+    Execution,
+    NewtonSettings,
+    StabilitySettings,
+    VesicleDeprecationWarning,
+)
 from vesicle.solve.solver import FlowResult, SolverError, solve_flow
 from vesicle.sphere.grid import SphereGrid
 from vesicle.steady.newton import NewtonError, SteadyResult, steady_tank_treading
@@ -22,14 +30,18 @@ from vesicle.stokes import LayerPotentials, double_layer, single_layer
 __all__ = [
     "Branch",
     "BranchPoint",
+    "ContinuationSettings",
     "CriticalResult",
+    "CriticalSearch",
     "Discretisation",
+    "Execution",
     "FlowResult",
     "LayerPotentials",
     "LinearFlow",
     "NeutralCurve",
     "NeutralPoint",
     "NewtonError",
+    "NewtonSettings",
     "ParticleStress",
     "Physics",
     "Shape",
@@ -39,8 +51,10 @@ __all__ = [
     "SpecialPoint",
     "SphereGrid",
     "StabilityResult",
+    "StabilitySettings",
     "SteadyProblem",
     "SteadyResult",
+    "VesicleDeprecationWarning",
     "__version__",
     "bending_energy",
     "bending_force",

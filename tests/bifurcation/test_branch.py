@@ -19,7 +19,13 @@ def hopf_branch():
     """v = 0.95, chi = 1, N = 4 on 16 x 32 through lambda_c = 8.3371 (the bracketing search
     `critical_lambda` at xtol 1e-3, bracket [8.3366, 8.3380]; Hopf, omega_R = 0.387)."""
     p = vs.Physics(v=0.95, chi=1.0)
-    return branch(p, vs.Discretisation(16, 4), "lam", [8.0, 8.2, 8.4, 8.6], xtol=1e-3)
+    return branch(
+        p,
+        vs.Discretisation(16, 4),
+        "lam",
+        [8.0, 8.2, 8.4, 8.6],
+        continuation=vs.ContinuationSettings(xtol=1e-3),
+    )
 
 
 def test_branch_reports_the_values_asked_for_with_their_stability(hopf_branch):
@@ -101,7 +107,17 @@ def test_a_hard_start_is_reached_by_continuation():
         vs.steady_tank_treading(p, d)
     r = reach(p, d)
     assert r.physics == p and r.residual < 1e-8
-    other = branch(p, d, "lam", [2.0, 3.0, 4.0, 5.0, 6.0], locate=False).points[-1].steady
+    other = (
+        branch(
+            p,
+            d,
+            "lam",
+            [2.0, 3.0, 4.0, 5.0, 6.0],
+            continuation=vs.ContinuationSettings(locate=False),
+        )
+        .points[-1]
+        .steady
+    )
     np.testing.assert_allclose(r.a, other.a, atol=1e-7)
     assert vs.stability(r).most_unstable[1] == pytest.approx(-0.0941, abs=5e-4)
 
@@ -130,7 +146,7 @@ def test_pseudo_arclength_locates_the_low_shear_fold():
     saddle half; the fold is the same from either half), a saddle-node: the leading eigenvalue
     is real and tends to zero there."""
     p, d = vs.Physics(v=0.95, chi=0.2), vs.Discretisation(16, 4)
-    b = branch(p, d, "lam", [7.0, 7.25, 7.5], locate=False)
+    b = branch(p, d, "lam", [7.0, 7.25, 7.5], continuation=vs.ContinuationSettings(locate=False))
     folds = [s for s in b.special_points if s.kind == "saddle-node" and s.located]
     assert len(folds) == 1 and folds[0].value == pytest.approx(7.48326, abs=2e-3)
     assert b.stopped is not None and "folds at" in b.stopped
@@ -191,7 +207,13 @@ def test_the_fold_is_the_zero_of_the_curvature_form_of_the_stability_operator():
     from vesicle.steady.stability import stability
 
     p, d = vs.Physics(v=0.85, chi=1.0), vs.Discretisation(16, 4)
-    b = branch(p, d, "lam", [3.9, 4.0, 4.05, 4.07, 4.09, 4.1], past_fold=3)
+    b = branch(
+        p,
+        d,
+        "lam",
+        [3.9, 4.0, 4.05, 4.07, 4.09, 4.1],
+        continuation=vs.ContinuationSettings(past_fold=3),
+    )
     folds = [s for s in b.special_points if s.kind == "saddle-node" and s.located]
     assert len(folds) == 2
     crossing, turn = sorted(s.value for s in folds)

@@ -28,7 +28,9 @@ def test_traced_point_agrees_with_the_bracketing_search(curve):
     8.78) landed on a second, stable steady state (psi = +0.021 where the branch has
     psi = -0.011 and is unstable), and at chi = 3.162 it returned lam_c = 6.627 (measured)."""
     traced = next(p for p in curve.points if p.chi == 3.0)
-    reference = critical_lambda(vs.Physics(v=0.95, chi=3.0), DISC, xtol=1e-3)
+    reference = critical_lambda(
+        vs.Physics(v=0.95, chi=3.0), DISC, search=vs.CriticalSearch(xtol=1e-3)
+    )
     assert traced.lambda_c == pytest.approx(reference.lambda_c, abs=3e-3)
     assert traced.bifurcation == reference.bifurcation == "hopf"
     assert traced.omega_R == pytest.approx(reference.omega_R, rel=0.02)
@@ -251,12 +253,18 @@ def test_seed_order_flow_nearest_one_vorticity_largest_first(monkeypatch):
                                ("vorticity", [8.0, 4.0, 2.0, 0.5, 0.2])):  # fmt: skip
         tried.clear()
         with pytest.raises(NewtonError, match="chi = 8: none"):
-            neutral_curve(vs.Physics(v=0.90), chis, DISC, orientation=orientation)
+            neutral_curve(
+                vs.Physics(v=0.90),
+                chis,
+                DISC,
+                analysis=vs.StabilitySettings(orientation=orientation),
+            )
         assert tried == order
 
 
-def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, stand_in, monkeypatch,
-                                                           tmp_path):
+def test_an_interrupted_curve_resumes_from_its_checkpoint(
+    small_state, stand_in, monkeypatch, tmp_path
+):
     """`vesicle neutral --out F` keeps each point's state in F's checkpoint folder as it is
     found; after a stop (here a failure above chi = 1.6), `--resume` takes the points kept and
     traces only the rest: no seed search, no point traced twice."""
@@ -290,8 +298,7 @@ def test_an_interrupted_curve_resumes_from_its_checkpoint(small_state, stand_in,
 
 @pytest.mark.parametrize("change, key", [(["--grid", "16"], "grid"), (["--v", "0.9"], "v"),
                                          (["--xtol", "1e-2"], "xtol")])  # fmt: skip
-def test_resume_refuses_another_curve(small_state, stand_in, monkeypatch, tmp_path, change,
-                                      key):
+def test_resume_refuses_another_curve(small_state, stand_in, monkeypatch, tmp_path, change, key):
     import vesicle.bifurcation.neutral as neutral
 
     out = tmp_path / "n.json"
@@ -474,7 +481,7 @@ def test_a_step_past_the_fold_of_an_s_shaped_branch_is_refused():
     from vesicle.bifurcation.neutral import _Tracer
 
     chi = 0.2449
-    tracer = _Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
+    tracer = _Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, vs.StabilitySettings(), None)
     start = reach(vs.Physics(v=0.95, chi=chi, lam=7.2), DISC)  # one state there, below the S
     p = tracer.point(start, chi, 7.6166)  # the bisection's prediction, from chi = 0.2 and 0.3
     assert p.bifurcation == "saddle-node" and p.located
@@ -514,7 +521,8 @@ def test_a_new_chi_starts_from_further_back_where_the_neighbour_reaches_nothing(
     monkeypatch.setattr(neutral._Tracer, "move", move)
     stable = types.SimpleNamespace(most_unstable=(-0.1, -0.02))
     monkeypatch.setattr(neutral, "stability", lambda *a, **k: stable)
-    tracer = neutral._Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
+    tracer = neutral._Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, vs.StabilitySettings(),
+                             None)  # fmt: skip
     state = tracer.stable_start(near, 0.23, 7.26, [far])
     assert (state.chi, state.lam) == (0.23, 7.26)  # reached at the first lam asked
     assert calls == [(0.27, 7.26, True), (0.27, 7.26, False), (0.3746, 7.26, True)]
@@ -564,7 +572,8 @@ def test_a_branch_leg_that_failed_is_not_run_again_from_the_same_state(small_sta
 
     monkeypatch.setattr(neutral, "branch", branch)
     monkeypatch.setattr(neutral._Tracer, "newton", newton)
-    tracer = neutral._Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, "linearised", None)
+    tracer = neutral._Tracer(vs.Physics(v=0.95), DISC, 1e-3, 0.03, None, vs.StabilitySettings(),
+                             None)  # fmt: skip
     start = _at_chi(small_state, 0.27, 7.6)
     with pytest.raises(NewtonError, match="no stable tank-treading state"):
         tracer.stable_start(start, 0.23, 7.26)

@@ -127,7 +127,7 @@ def test_above_the_coarse_resolution_the_seed_comes_from_the_coarse_search():
     assert not any("direction" in d for d in said)
     (point,) = c.points
     assert point.located and point.bifurcation == "hopf"
-    full = vs.critical_lambda(physics.replace(lam=1.0), disc, coarse=None)
+    full = vs.critical_lambda(physics.replace(lam=1.0), disc, search=vs.CriticalSearch(coarse=None))
     assert point.lambda_c == pytest.approx(full.lambda_c, abs=2e-3)
 
 

@@ -149,8 +149,10 @@ def test_the_accurate_action_derivative_is_the_difference_of_whole_jacobians(sta
     reference = codim2.fd_jacobian_action_derivative(eq.jacobian, x, p, q, d)
     assert np.abs(fast - reference).max() < 1e-6 * np.abs(reference).max()  # measured 1e-8
     slow = SteadyEquations(state.physics, TINY, form="spec", actions="jacobians")
-    np.testing.assert_array_equal(slow.jacobian_action_derivative(x, p, q, d),
-                                  codim2.fd_jacobian_action_derivative(slow.jacobian, x, p, q, d))
+    np.testing.assert_array_equal(
+        slow.jacobian_action_derivative(x, p, q, d),
+        codim2.fd_jacobian_action_derivative(slow.jacobian, x, p, q, d),
+    )
 
 
 def test_a_points_jacobian_is_computed_once(state, monkeypatch):
@@ -163,8 +165,9 @@ def test_a_points_jacobian_is_computed_once(state, monkeypatch):
     J = eq.jacobian(x, p)
     calls = []
     original = SteadyProblem.jacobian
-    monkeypatch.setattr(SteadyProblem, "jacobian",
-                        lambda self, *a, **k: calls.append(1) or original(self, *a, **k))
+    monkeypatch.setattr(
+        SteadyProblem, "jacobian", lambda self, *a, **k: calls.append(1) or original(self, *a, **k)
+    )
     again = eq.jacobian(x, p)
     assert calls == [] and np.array_equal(again, J) and again is not J
     again[0, 0] += 1.0
@@ -209,8 +212,17 @@ def sheets_near_the_type_change():
 
     disc = vs.Discretisation(grid=16, degree=4)
     settings = DEFAULT_SETTINGS
-    low = vs.branch(vs.Physics(v=0.95, lam=7.0, chi=0.26), disc, "lam", [7.0, 7.3, 7.45, 7.5],
-                    locate=False, arclength=False).points[-1].steady  # fmt: skip
+    low = (
+        vs.branch(
+            vs.Physics(v=0.95, lam=7.0, chi=0.26),
+            disc,
+            "lam",
+            [7.0, 7.3, 7.45, 7.5],
+            continuation=vs.ContinuationSettings(locate=False, arclength=False),
+        )
+        .points[-1]
+        .steady
+    )
     up = vs.steady_tank_treading(vs.Physics(v=0.95, lam=7.59, chi=0.27), disc)
     eq = SteadyEquations(low.physics, disc, form="spec")
     fold = codim2.locate_fold(eq, *eq.state(low), free=1, settings=settings)
@@ -219,7 +231,8 @@ def sheets_near_the_type_change():
 
 
 def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_curve(
-        sheets_near_the_type_change):
+    sheets_near_the_type_change,
+):
     """v = 0.95, N = 4 on 16x32 with the neutral curve's settings: the lower sheet's fold and
     the upper sheet's Hopf point solved for at each chi, and the chi where their lambdas meet.
     Fails if the type change is not located or moves out of the independent references: the
@@ -238,7 +251,8 @@ def test_the_type_change_is_located_where_the_fold_meets_the_upper_sheets_hopf_c
 
 
 def test_the_type_changes_secant_iterations_find_brents_crossing_in_fewer_solves(
-        sheets_near_the_type_change):
+    sheets_near_the_type_change,
+):
     """The same crossing as above (v = 0.95, N = 4 on 16x32) by the secant iterations from a
     start off the root (0.26: where the curves' own points put it is within about 0.005):
     the same chi to xtol (Brent's 0.256642, measured with the reference path in the test

@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
+import vesicle as vs
 from vesicle.cli import main
 
 
@@ -305,7 +306,11 @@ def test_critical_at_low_resolution_against_an_independent_fine_bracket():
     lam_c = out["lambda_c"]
     assert out["bifurcation"] == "hopf" and 8.2 < lam_c < 8.5
     grow = [
-        stability(steady_tank_treading(0.95, lam, 1.0, degree=4, grid=16)).most_unstable[1]
+        stability(
+            steady_tank_treading(
+                vs.Physics(v=0.95, lam=lam, chi=1.0), vs.Discretisation(grid=16, degree=4)
+            )
+        ).most_unstable[1]
         for lam in (lam_c * 0.997, lam_c * 1.003)
     ]
     assert grow[0] < 0 < grow[1]

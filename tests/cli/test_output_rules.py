@@ -15,7 +15,8 @@ from vesicle.cli import main
 from vesicle.cli import steady as cli_steady
 from vesicle.steady.files import read_steady, steady_summary, write_steady
 from vesicle.steady.newton import NewtonError
-from vesicle.workflows.sweep import TASKS, Task, run_point
+from vesicle.workflows.sweep import run_point
+from vesicle.workflows.tasks import TASKS, Task
 
 TINY = vs.Discretisation(grid=8, degree=2)
 # the modules (``vesicle.bifurcation.branch`` is also the name of a function in the package
@@ -140,7 +141,7 @@ def test_reach_flags_a_suspect_state_and_critical_refuses_it(tiny_state, monkeyp
     assert state.suspect and "real unstable mode" in state.start
     assert steady_summary(state)["start"].startswith("suspect")
     with pytest.raises(NewtonError, match="no trustworthy first state"):
-        critical_module._first_state(target, TINY, None, {}, "flow")
+        critical_module._first_state(target, TINY, None, {})
 
 
 # --------------------------------------------------------------------------- run files

@@ -69,10 +69,8 @@ def test_stress_equals_the_far_field_stresslet(make, lam, chi):
         assert (lam - 1.0) * np.abs(un + un.T).max() > 1e-2 * scale
 
 
-def test_stress_of_a_steady_tank_treading_state_equals_its_far_field():
-    steady = vs.steady_tank_treading(
-        vs.Physics(v=0.95, lam=8.0, chi=10.0), vs.Discretisation(16, 4)
-    )
+def test_stress_of_a_steady_tank_treading_state_equals_its_far_field(table1_n4):
+    steady = table1_n4  # v = 0.95, lam = 8, chi = 10 at N = 4 on 16x32 (tests/conftest.py)
     shape = steady.shape
     r = vs.solve_flow(shape, lam=8.0, chi=10.0, tolerances=TIGHT)
     stress, far = _deviatoric(r, shape), _far_field(shape, r, 8.0)

@@ -197,14 +197,19 @@ def test_linearised_jacobian_through_the_problem(jacobians):
         P.replace(jacobian_method="complex-step")
 
 
-def test_steady_state_and_stability_agree_with_the_reference():
+def test_steady_state_and_stability_agree_with_the_reference(table1_n4):
     """Newton + stability with linearised Jacobians against the reference (finite differences,
     no Broyden updates) at N = 4 on 16 x 32 (Table 1's parameters): omega to 1e-5 relative
     (measured 5e-7; the reference's own O(h^2) error is of that order); the states agree to
     what Newton's stopping rule leaves (residual < 1e-8: measured 1.1e-8 in the coefficients)."""
-    p, d = vs.Physics(v=0.95, lam=8.0, chi=10.0), vs.Discretisation(grid=16, degree=4)
-    new = vs.steady_tank_treading(p, d)
-    ref = vs.steady_tank_treading(p, d, updates="none", jacobian="differences")
+    new = table1_n4  # the default path at Table 1's parameters (tests/conftest.py)
+    p, d = new.physics, new.discretisation
+    ref = vs.steady_tank_treading(
+        p,
+        d,
+        newton=vs.NewtonSettings(updates="none"),
+        analysis=vs.StabilitySettings(jacobian="differences"),
+    )
     np.testing.assert_allclose(new.a, ref.a, atol=1e-7)
     w_new = np.array(vs.stability(new).most_unstable)  # (|omega_R|, omega_I): pairs are +-
     w_ref = np.array(vs.stability(ref).most_unstable)

@@ -16,7 +16,9 @@ POINT = vs.Physics(v=0.95, lam=11.0, chi=4.0)
 
 @pytest.fixture(scope="module")
 def vorticity():
-    return vs.steady_tank_treading(POINT, DISC, orientation="vorticity")
+    return vs.steady_tank_treading(
+        POINT, DISC, analysis=vs.StabilitySettings(orientation="vorticity")
+    )
 
 
 def test_the_vorticity_branch_has_its_long_axis_along_y(vorticity):
@@ -36,9 +38,11 @@ def test_a_state_on_the_other_branch_is_refused(vorticity):
     again = vs.steady_tank_treading(POINT.replace(lam=11.5), DISC, initial=vorticity)
     assert again.orientation == "vorticity"
     with pytest.raises(NewtonError, match="'vorticity' branch"):
-        vs.steady_tank_treading(POINT, DISC, initial=vorticity, orientation="flow")
+        vs.steady_tank_treading(
+            POINT, DISC, initial=vorticity, analysis=vs.StabilitySettings(orientation="flow")
+        )
     with pytest.raises(ValueError, match="orientation"):
-        vs.steady_tank_treading(POINT, DISC, orientation="y")
+        vs.steady_tank_treading(POINT, DISC, analysis=vs.StabilitySettings(orientation="y"))
 
 
 def test_tt_orientation_json_has_the_long_axis():
@@ -54,7 +58,14 @@ def test_a_branch_of_the_vorticity_state_with_general_modes(vorticity):
     the x-z symmetry is the most unstable (at N = 4 on 16x32, lam = 11, chi = 4: (1.2572,
     +0.0081) in general modes while every symmetric mode decays, (2.1866, -0.0606); measured),
     so the symmetric analysis alone would call the state stable."""
-    b = vs.branch(POINT, DISC, "lam", [11.0, 12.0], start=vorticity, modes="general")
+    b = vs.branch(
+        POINT,
+        DISC,
+        "lam",
+        [11.0, 12.0],
+        start=vorticity,
+        analysis=vs.StabilitySettings(modes="general"),
+    )
     assert all(p.steady.orientation == "vorticity" for p in b.points)
     general = b.points[-1].omega
     symmetric = vs.stability(b.points[-1].steady).omega
@@ -76,7 +87,15 @@ def test_vorticity_searches_start_where_the_branch_exists():
     d = vs.Discretisation(grid=12, degree=4)
     lam = vorticity_start_lambda(0.90)
     assert lam == pytest.approx(4.0 * misbah_critical_lambda(0.90)) and lam > 8.0
-    r = reach(vs.Physics(v=0.90, lam=lam, chi=2.0), d, orientation="vorticity")
+    r = reach(
+        vs.Physics(v=0.90, lam=lam, chi=2.0),
+        d,
+        analysis=vs.StabilitySettings(orientation="vorticity"),
+    )
     assert r.orientation == "vorticity" and abs(r.long_axis[1]) > 0.99
     with pytest.raises(NewtonError, match=r"continuation towards lam = 4\.28 stopped"):
-        reach(vs.Physics(v=0.90, lam=4.28, chi=2.0), d, orientation="vorticity")
+        reach(
+            vs.Physics(v=0.90, lam=4.28, chi=2.0),
+            d,
+            analysis=vs.StabilitySettings(orientation="vorticity"),
+        )

@@ -15,9 +15,10 @@ from vesicle.steady.stability import FullBasis, stability
 
 
 @pytest.fixture(scope="module")
-def steady():
-    # small and fast: N = 4 on 16 x 32 (the paper's Table 1 case is v=0.95, lam=8, chi=10)
-    return steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
+def steady(table1_n4):
+    # small and fast: N = 4 on 16 x 32 (the paper's Table 1 case is v=0.95, lam=8, chi=10);
+    # the session's catalogue (tests/conftest.py)
+    return table1_n4
 
 
 @pytest.fixture(scope="module")
@@ -25,9 +26,11 @@ def newton_reference():
     """The same state by the reference Newton (a fresh finite-difference Jacobian at every
     step)."""
     return steady_tank_treading(
-        0.95, 8.0, 10.0, degree=4, grid=16, updates="none", jacobian="differences",
-        constraints="first-order",
-    )  # fmt: skip
+        vs.Physics(v=0.95, lam=8.0, chi=10.0),
+        vs.Discretisation(grid=16, degree=4),
+        newton=vs.NewtonSettings(updates="none", constraints="first-order"),
+        analysis=vs.StabilitySettings(jacobian="differences"),
+    )
 
 
 def test_newton_converges_quadratically(steady, newton_reference):
@@ -73,9 +76,11 @@ def test_constraint_correction_keeps_the_reused_jacobian(steady):
     contracts by 60 (to 6.1e-5) and no Jacobian is formed; both reach the same state (to
     their tolerance 1e-8 in the residual), whose eigenvalues then agree to about 1e-6
     (measured 9.4e-7 in omega_I = -0.0329)."""
-    opts = dict(degree=4, grid=16, initial=steady)
-    new = steady_tank_treading(0.95, 8.3, 10.0, **opts)
-    old = steady_tank_treading(0.95, 8.3, 10.0, constraints="first-order", **opts)
+    p, d = vs.Physics(v=0.95, lam=8.3, chi=10.0), vs.Discretisation(grid=16, degree=4)
+    new = steady_tank_treading(p, d, initial=steady)
+    old = steady_tank_treading(
+        p, d, initial=steady, newton=vs.NewtonSettings(constraints="first-order")
+    )
     assert new.jacobians == 0 < old.jacobians
     assert new.residual_history[1] < 0.05 * new.residual_history[0]
     np.testing.assert_allclose(new.a, old.a, atol=1e-7)
@@ -104,7 +109,13 @@ def state_v085():
     """v = 0.85, chi = 1, lam = 3.9 (N = 4, 16 x 32), reached by a branch from lam = 3: a
     state whose multipliers are not small."""
     d = vs.Discretisation(16, 4)
-    b = vs.branch(vs.Physics(v=0.85, chi=1.0), d, "lam", [3.0, 3.5, 3.9], locate=False)
+    b = vs.branch(
+        vs.Physics(v=0.85, chi=1.0),
+        d,
+        "lam",
+        [3.0, 3.5, 3.9],
+        continuation=vs.ContinuationSettings(locate=False),
+    )
     return b.points[-1].steady
 
 
@@ -116,15 +127,21 @@ def test_multiplier_curvature_restores_quadratic_convergence(state_v085):
     curvature term -mu . H it converges quadratically (2.0e-2, 4.4e-4, 5.8e-6, 3.4e-9)."""
     d, r = state_v085.discretisation, state_v085
     start = r.a + 1e-3 * np.random.default_rng(0).standard_normal(r.a.size)
-    new = steady_tank_treading(r.physics, d, initial=start, updates="none")
+    new = steady_tank_treading(
+        r.physics, d, initial=start, newton=vs.NewtonSettings(updates="none")
+    )
     h = new.residual_history
     assert new.converged and len(h) <= 5 and h[-1] < 10 * h[-2] ** 1.6
     np.testing.assert_allclose(new.a, r.a, atol=1e-7)
     with pytest.raises(NewtonError):
-        steady_tank_treading(r.physics, d, initial=start, updates="none", max_iterations=6,
-                             constraints="first-order")  # fmt: skip
+        steady_tank_treading(
+            r.physics,
+            d,
+            initial=start,
+            newton=vs.NewtonSettings(updates="none", max_iterations=6, constraints="first-order"),
+        )
     with pytest.raises(ValueError, match="constraints"):
-        steady_tank_treading(r.physics, d, constraints="exact")
+        steady_tank_treading(r.physics, d, newton=vs.NewtonSettings(constraints="exact"))
 
 
 def test_stability_with_the_multipliers_curvature(state_v085, caplog):
@@ -227,9 +244,10 @@ def test_continuation_reuses_the_neighbours_jacobian(steady):
     """Started from a neighbouring SteadyResult, Newton takes chord steps on its Jacobian: the
     same state as a fresh Newton from the same start, for a fraction of the solves (finite
     differences, where a Jacobian costs one solve per column)."""
-    opts = dict(degree=4, grid=16, jacobian="differences")
-    chord = steady_tank_treading(0.95, 8.2, 10.0, initial=steady, **opts)
-    fresh = steady_tank_treading(0.95, 8.2, 10.0, initial=steady.a, **opts)
+    p, d = vs.Physics(v=0.95, lam=8.2, chi=10.0), vs.Discretisation(grid=16, degree=4)
+    differences = vs.StabilitySettings(jacobian="differences")
+    chord = steady_tank_treading(p, d, initial=steady, analysis=differences)
+    fresh = steady_tank_treading(p, d, initial=steady.a, analysis=differences)
     np.testing.assert_allclose(chord.a, fresh.a, atol=1e-8)
     assert chord.residual < 1e-8
     # both end with the same central-difference stability Jacobian (2 solves per column)
@@ -241,11 +259,18 @@ def test_chord_falls_back_to_newton_when_the_jacobian_is_poor(steady):
     """A far neighbour (lam 8 -> 6.5): chord steps stop paying, Newton takes over and converges.
     The reference (fresh Jacobians from there on) ends quadratically; with Broyden updates the
     end is superlinear on a reused Jacobian, with fewer Jacobians (measured: 3 against 6)."""
-    ref = steady_tank_treading(0.95, 6.5, 10.0, degree=4, grid=16, initial=steady, updates="none")
+    ref = steady_tank_treading(
+        vs.Physics(v=0.95, lam=6.5, chi=10.0),
+        vs.Discretisation(grid=16, degree=4),
+        initial=steady,
+        newton=vs.NewtonSettings(updates="none"),
+    )
     assert ref.converged and ref.residual < 1e-8
     r = np.array(ref.residual_history)
     assert r[-1] < 10 * r[-2] ** 1.6  # quadratic at the end: fresh Jacobians
-    far = steady_tank_treading(0.95, 6.5, 10.0, degree=4, grid=16, initial=steady)
+    far = steady_tank_treading(
+        vs.Physics(v=0.95, lam=6.5, chi=10.0), vs.Discretisation(grid=16, degree=4), initial=steady
+    )
     assert far.converged and far.residual < 1e-8 and far.jacobians < ref.jacobians
     np.testing.assert_allclose(far.a, ref.a, atol=1e-7)
 
@@ -254,7 +279,12 @@ def test_newton_from_too_far_reports_its_history(steady):
     """lam 8 -> 5 in one jump diverges (steps are halved to stay representable): a NewtonError
     with the residual history, not a ShapeError from deep inside."""
     with pytest.raises(NewtonError, match=r"\(besides [1-9][0-9]* step halvings? where"):
-        steady_tank_treading(0.95, 5.0, 10.0, degree=4, grid=16, initial=steady, max_iterations=6)
+        steady_tank_treading(
+            vs.Physics(v=0.95, lam=5.0, chi=10.0),
+            vs.Discretisation(grid=16, degree=4),
+            initial=steady,
+            newton=vs.NewtonSettings(max_iterations=6),
+        )
 
 
 def test_parallel_jacobian_is_identical_to_serial(steady):
@@ -297,9 +327,13 @@ def test_symmetric_basis_round_trip():
 
 def test_bad_input():
     with pytest.raises(ValueError, match="non-zero chi"):
-        steady_tank_treading(0.95, 1.0, 0.0, degree=4, grid=12)
+        steady_tank_treading(
+            vs.Physics(v=0.95, lam=1.0, chi=0.0), vs.Discretisation(grid=12, degree=4)
+        )
     with pytest.raises(ValueError, match="lam"):
-        steady_tank_treading(0.95, -1.0, 1.0, degree=4, grid=12)
+        steady_tank_treading(
+            vs.Physics(v=0.95, lam=-1.0, chi=1.0), vs.Discretisation(grid=12, degree=4)
+        )
     with pytest.raises(ValueError, match="modes"):
         stability(None, modes="odd")
 
@@ -310,7 +344,11 @@ def test_critical_lambda_low_resolution():
     N = 4 on 16 x 32 gives 8.3371 (xtol 1e-3, bracket [8.3366, 8.3380], 2026-12-01), a Hopf
     point with omega_R = 0.387: SPEC §14 says the N = 4 and N = 8 neutral curves nearly coincide
     at v = 0.95 (here 1.4 % apart)."""
-    c = critical_lambda(0.95, 1.0, degree=4, grid=16, lam0=8.0, xtol=1e-2)
+    c = critical_lambda(
+        vs.Physics(v=0.95, chi=1.0),
+        vs.Discretisation(grid=16, degree=4),
+        search=vs.CriticalSearch(lam0=8.0, xtol=1e-2),
+    )
     assert c.lambda_c == pytest.approx(8.337, abs=0.02)
     assert c.bifurcation == "hopf" and c.omega_R == pytest.approx(0.387, rel=0.02)
 
@@ -320,13 +358,21 @@ def test_critical_lambda_from_a_coarse_search():
     evaluation at 16 x 32, whose lambda_c (8.3370 measured) is the reference bracketing's from
     the leading-order start, 8.3371 at xtol 1e-3 (bracket [8.3366, 8.3380], 2026-12-01, the
     slow test above), with 4 evaluations at 16 x 32 instead of 9."""
-    c = critical_lambda(0.95, 1.0, degree=4, grid=16, coarse=vs.Discretisation(12, 4))
+    c = critical_lambda(
+        vs.Physics(v=0.95, chi=1.0),
+        vs.Discretisation(grid=16, degree=4),
+        search=vs.CriticalSearch(coarse=vs.Discretisation(12, 4)),
+    )
     assert c.lambda_c == pytest.approx(8.3371, abs=2e-3)
     assert c.bifurcation == "hopf"
     assert c.coarse is not None and c.coarse.lambda_c == pytest.approx(c.lambda_c, rel=0.02)
     assert c.history[0][0] == c.coarse.lambda_c and len(c.history) <= 5
     with pytest.raises(ValueError, match="coarse"):
-        critical_lambda(0.95, 1.0, degree=4, grid=16, coarse="fast")
+        critical_lambda(
+            vs.Physics(v=0.95, chi=1.0),
+            vs.Discretisation(grid=16, degree=4),
+            search=vs.CriticalSearch(coarse="fast"),
+        )
 
 
 @pytest.mark.parametrize(
@@ -354,13 +400,31 @@ def test_bracketing_reports_no_sign_change():
         _bracket(lambda lam: -1.0, 8.0, 0.0, 1.5)
 
 
-def test_parameter_objects_give_the_keyword_result_bit_for_bit(steady):
-    p = vs.Physics(v=0.95, lam=8.0, chi=10.0)
-    r = vs.steady_tank_treading(p, vs.Discretisation(grid=16, degree=4))
+def test_the_former_loose_call_forms_warn_and_give_the_same_state_bit_for_bit(steady):
+    """``steady_tank_treading(v, lam, chi, degree=, grid=)`` and the loose settings keywords are
+    kept for one release: each warns (naming the object to pass instead) and gives the state of
+    the objects' call, bit for bit (``steady`` is the objects' call)."""
+    with pytest.warns(vs.VesicleDeprecationWarning, match=r"Physics\(v, lam, chi\)"):
+        r = vs.steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16)
     np.testing.assert_array_equal(r.a, steady.a)
     np.testing.assert_array_equal(r.jacobian, steady.jacobian)
     assert r.residual_history == steady.residual_history
     assert r.physics == steady.physics and r.discretisation == steady.discretisation
+    p, d = steady.physics, steady.discretisation
+    with pytest.warns(vs.VesicleDeprecationWarning, match=r"NewtonSettings\(tolerance=\.\.\.\)"):
+        loose = vs.steady_tank_treading(p, d, initial=steady, tolerance=1e-9)
+    objects = vs.steady_tank_treading(p, d, initial=steady,
+                                      newton=vs.NewtonSettings(tolerance=1e-9))  # fmt: skip
+    np.testing.assert_array_equal(loose.a, objects.a)
+    with pytest.raises(TypeError, match="not both"):
+        vs.steady_tank_treading(p, d, newton=vs.NewtonSettings(), tolerance=1e-9)
+    with pytest.raises(TypeError, match=r"unexpected keyword argument.*tolerence"):
+        vs.steady_tank_treading(p, d, tolerence=1e-9)
+    with pytest.warns(vs.VesicleDeprecationWarning) as caught:
+        c = vs.critical_lambda(0.95, 1.0, degree=4, grid=16, coarse=None, lam0=8.3, xtol=0.05)
+    assert c.lambda_c == pytest.approx(8.337, abs=0.05)  # test_critical_lambda_low_resolution
+    said = " ".join(str(w.message) for w in caught)
+    assert "loose v, chi, degree, grid" in said and "CriticalSearch(lam0=..., xtol=...)" in said
 
 
 def test_numpy_backend_gives_the_same_eigenvalues(steady):
@@ -381,7 +445,11 @@ def test_broyden_updates_agree_with_the_reference_newton(steady, newton_referenc
     w, w_ref = np.array(stability(steady).most_unstable), np.array(stability(ref).most_unstable)
     np.testing.assert_allclose(w, w_ref, rtol=1e-5)
     with pytest.raises(ValueError, match="updates"):
-        steady_tank_treading(0.95, 8.0, 10.0, degree=4, grid=16, updates="bfgs")
+        steady_tank_treading(
+            vs.Physics(v=0.95, lam=8.0, chi=10.0),
+            vs.Discretisation(grid=16, degree=4),
+            newton=vs.NewtonSettings(updates="bfgs"),
+        )
 
 
 def test_dask_jacobian_is_identical_to_serial(steady):

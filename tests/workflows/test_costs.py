@@ -163,7 +163,7 @@ def test_a_study_file_of_ones_own_keeps_its_cost(tmp_path):
 
 
 def test_sweep_help_names_every_task():
-    from vesicle.workflows.sweep import TASKS
+    from vesicle.workflows.tasks import TASKS
 
     text = _help("sweep", "--help")
     for task in TASKS:

@@ -134,12 +134,12 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
         (
             '[sweep]\ntask = "neutral"\nout = "s.h5"\n[grid]\nv = [0.95]\n[task]\n'
             'orientation = "y"\n',
-            "orientation must be one of flow, vorticity",
+            "orientation must be 'flow' or 'vorticity'",
         ),
         (
             '[sweep]\ntask = "branch"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
-            'parameter = "lam"\nvalues = "1:3"\norientation = "vorticity"\n',
-            "orientation",
+            'parameter = "lam"\nvalues = "1:3"\norientation = "up"\n',
+            "[task] orientation must be 'flow' or 'vorticity', got 'up'",
         ),
         (
             '[sweep]\ntask = "critical"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
@@ -370,7 +370,7 @@ def test_a_branch_sweep_gives_what_branch_gives(tmp_path):
 def test_a_neutral_point_that_stopped_keeps_its_points_and_counts_as_failed(monkeypatch):
     """task = "neutral": a curve that stopped part-way is recorded as failed (a rerun retries
     it) with the points it found and where it stopped."""
-    import vesicle.workflows.sweep as sweep
+    import vesicle.workflows.tasks as sweep
     from vesicle.bifurcation.neutral import NeutralCurve
 
     def stopped(physics, chi, disc, **options):
@@ -387,8 +387,9 @@ def test_a_neutral_point_is_continued_in_two_parameters_by_default(monkeypatch):
     """task = "neutral" without ``continuation``: the two-parameter continuation, as
     ``vesicle neutral``, given the task's options (and not the tracer's); its failures count
     as the tracer's do."""
-    import vesicle.workflows.sweep as sweep
+    import vesicle.workflows.tasks as sweep
     from vesicle.bifurcation.neutral import NeutralCurve
+    from vesicle.model.settings import StabilitySettings
 
     seen = {}
 
@@ -400,7 +401,8 @@ def test_a_neutral_point_is_continued_in_two_parameters_by_default(monkeypatch):
     monkeypatch.setattr(sweep, "neutral_curve", lambda *a, **k: pytest.fail("traced"))
     entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12},
                       {"chi": [1.0, 3.0], "form": "curvature", "modes": "general"}, {})
-    assert seen == {"chi": [1.0, 3.0], "form": "curvature", "modes": "general"}
+    assert seen == {"chi": [1.0, 3.0], "form": "curvature",
+                    "analysis": StabilitySettings(modes="general")}  # fmt: skip
     assert entry["status"] == "failed"
 
 
@@ -464,7 +466,7 @@ def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
 
     with pytest.raises(KeyboardInterrupt):
         simulate(params, out=runs / f"{point.key}.h5", progress=stop)
-    with caplog.at_level("INFO", logger="vesicle.workflows.sweep"):
+    with caplog.at_level("INFO", logger="vesicle.workflows.tasks"):
         entry = run_point("run", point.to_dict(), config.discretisation.to_dict(), {},
                           config.settings)  # fmt: skip
     assert entry["status"] == "done", entry.get("error")

@@ -34,6 +34,13 @@ from vesicle.bifurcation.continuation import ArclengthPoint, arclength_step, tan
 from vesicle.geometry.diagnostics import diagnose
 from vesicle.geometry.surface import ShapeError
 from vesicle.model.parameters import Discretisation, Physics
+from vesicle.model.settings import (
+    ContinuationSettings,
+    NewtonSettings,
+    StabilitySettings,
+    legacy_settings,
+    refuse_unknown,
+)
 from vesicle.ranges import parse_range
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import (
@@ -256,10 +263,11 @@ class _Tracer:
 
     def __init__(
         self, physics, discretisation, parameter, executor, progress, max_halvings,
-        jacobian="linearised", modes="symmetric", min_step=0.0,
+        analysis: StabilitySettings | None = None, min_step=0.0,
     ):  # fmt: skip
         self.physics, self.disc, self.parameter = physics, discretisation, parameter
-        self.jacobian, self.modes = jacobian, modes
+        analysis = analysis if analysis is not None else StabilitySettings()
+        self.analysis, self.jacobian, self.modes = analysis, analysis.jacobian, analysis.modes
         self.executor, self.progress = executor, progress
         self.max_halvings = max_halvings
         # the shortest step a failed one is halved to (absolute in lam, relative in chi, v)
@@ -298,9 +306,9 @@ class _Tracer:
             self.disc,
             initial=start,
             guess=guess,
+            newton=NewtonSettings(max_iterations=BRANCH_ITERATIONS),
+            analysis=self._newton_analysis(start),
             executor=self.executor,
-            max_iterations=BRANCH_ITERATIONS,
-            jacobian=self.jacobian,
         )
         if guess is not None and on_path:
             predicted = float(np.linalg.norm(guess - start.a))
@@ -319,6 +327,12 @@ class _Tracer:
             self.progress({self.parameter: value, "psi": steady.psi, "omega_R": w_r,
                            "omega_I": w_i, "solves": steady.solves})  # fmt: skip
         return point
+
+    def _newton_analysis(self, start: SteadyResult | None) -> StabilitySettings:
+        """Newton's branch: that of the state it continues (as the loose form did)."""
+        if start is None or start.orientation == self.analysis.orientation:
+            return self.analysis
+        return StabilitySettings(start.orientation, self.analysis.modes, self.jacobian)
 
     def tangent_guess(self, point: BranchPoint, value: float) -> np.ndarray | None:
         """The basis coordinates at ``value`` predicted along the branch's tangent at
@@ -408,18 +422,12 @@ def branch(
     parameter: str = "lam",
     values: Sequence[float] | str | None = None,
     *,
-    step: float | None = None,
     start: SteadyResult | None = None,
-    locate: bool = True,
-    xtol: float = 1e-3,
-    max_halvings: int = 4,
-    arclength: bool = True,
-    past_fold: int = 0,
+    continuation: ContinuationSettings | None = None,
+    analysis: StabilitySettings | None = None,
     executor: Executor | None = None,
     progress: Callable[[dict], None] | None = None,
-    jacobian: str = "linearised",
-    modes: str = "symmetric",
-    orientation: str = "flow",
+    **legacy,
 ) -> Branch:
     """Continue the steady TT state of ``physics`` in ``parameter`` through ``values``.
 
@@ -429,29 +437,35 @@ def branch(
         The fixed parameters (``physics``' own value of ``parameter`` is not used).
     parameter : {"lam", "chi", "v"}
     values : sequence of float or str
-        The values to report, in the order to continue (``"1:9"`` with ``step``, ``"1:9:0.5"``
-        or ``"1,2,4"`` also accepted).
+        The values to report, in the order to continue (``"1:9"`` with ``continuation.step``,
+        ``"1:9:0.5"`` or ``"1,2,4"`` also accepted).
     start : SteadyResult, optional
         A converged state to start from (else Newton from the default start at the first value).
-    locate : bool
-        Locate special points between neighbouring points to ``xtol`` (relative for ``v`` and
-        ``chi``, absolute for ``lam``; see :class:`SpecialPoint`).
-    max_halvings : int
-        Halvings of a failed step before natural continuation stops (at a fold, typically).
-    arclength : bool
-        Where natural continuation stops, follow the branch by pseudo-arclength from the last
-        points to locate the fold (the tangent's ``parameter`` component changes sign there).
-    past_fold : int
-        Arclength steps to take beyond the fold, on the unstable side (0: stop at the fold).
+    continuation : ContinuationSettings
+        ``locate``: locate special points between neighbouring points to ``xtol`` (relative for
+        ``v`` and ``chi``, absolute for ``lam``; see :class:`SpecialPoint`); ``max_halvings``:
+        halvings of a failed step before natural continuation stops (at a fold, typically);
+        ``arclength``: where natural continuation stops, follow the branch by pseudo-arclength
+        from the last points to locate the fold (the tangent's ``parameter`` component changes
+        sign there); ``past_fold``: arclength steps beyond the fold, on the unstable side.
+    analysis : StabilitySettings
+        ``modes``: the perturbations analysed at every point (:func:`stability`);
+        ``orientation``: the TT branch of the first point when no ``start`` is given (default:
+        ``start``'s); ``jacobian``: how Newton and stability form their Jacobians.
     executor, progress
         Jacobian columns' executor; a callable given each point's summary.
-    modes : {"symmetric", "general"}
-        The perturbations of the stability analysis at every point (:func:`stability`).
-    orientation : {"flow", "vorticity"}
-        The TT branch of the first point when no ``start`` is given (``start``'s otherwise).
-    jacobian : {"linearised", "differences"}
-        How Newton and stability form their Jacobians (:func:`steady_tank_treading`).
+
+    The former keywords ``step``, ``locate``, ``xtol``, ``max_halvings``, ``arclength``,
+    ``past_fold`` and ``modes``, ``orientation``, ``jacobian`` work for one release, with a
+    :class:`~vesicle.model.settings.VesicleDeprecationWarning`.
     """
+    settings = legacy_settings("branch", ContinuationSettings, continuation, legacy)
+    settings = settings or ContinuationSettings()
+    analysis = legacy_settings("branch", StabilitySettings, analysis, legacy)
+    refuse_unknown("branch", legacy)
+    if analysis is None:
+        analysis = StabilitySettings(start.orientation if start is not None else "flow")
+    step, xtol, past_fold = settings.step, settings.xtol, settings.past_fold
     if parameter not in PARAMETERS:
         raise ValueError(f"parameter must be one of {PARAMETERS}, got {parameter!r}")
     if isinstance(values, str):
@@ -461,28 +475,23 @@ def branch(
     values = [float(x) for x in values]
     for x in values:  # every value is a valid Physics, checked before any work
         physics.replace(**{parameter: x})
-    if not (np.isfinite(xtol) and xtol > 0):
-        raise ValueError(f"xtol must be positive, got {xtol}")
-    if isinstance(past_fold, bool) or int(past_fold) != past_fold or past_fold < 0:
-        raise ValueError(f"past_fold (arclength steps beyond a fold) must be an integer of at "
-                         f"least 0, got {past_fold}")  # fmt: skip
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
-    tracer = _Tracer(physics, disc, parameter, executor, progress, int(max_halvings), jacobian,
-                     modes, MIN_STEP * xtol)  # fmt: skip
+    tracer = _Tracer(physics, disc, parameter, executor, progress, settings.max_halvings,
+                     analysis, MIN_STEP * xtol)  # fmt: skip
     stopped, stopped_between, fold, ends = None, None, None, None
     if start is None:  # the first value by Newton, or by continuation from an easier point
-        start = reach(tracer.at(values[0]), disc, executor=executor, progress=progress,
-                      jacobian=jacobian, orientation=orientation)  # fmt: skip
+        start = reach(tracer.at(values[0]), disc, analysis=analysis, executor=executor,
+                      progress=progress)  # fmt: skip
         requested = start.physics == tracer.at(values[0])
-        tracer.add(_analyse(start, requested=requested, modes=modes))
+        tracer.add(_analyse(start, requested=requested, modes=analysis.modes))
         remaining = values if not requested else values[1:]
     else:
-        tracer.add(_analyse(start, requested=False, modes=modes))
+        tracer.add(_analyse(start, requested=False, modes=analysis.modes))
         remaining = values
     try:  # a stop at the first value too is a stop (a fold right after the start)
         for value in remaining:
-            early = arclength
+            early = settings.arclength
             while True:
                 try:
                     tracer.step_to(value, early=early)
@@ -504,9 +513,9 @@ def branch(
             f"{stop.target:.6g}, {stop.why}): {stop.cause}"
         )
         log.warning("branch stopped: %s", stopped)
-    specials = _special_points(tracer, locate, xtol, ends)
+    specials = _special_points(tracer, settings.locate, xtol, ends)
     if stopped is not None and fold is None:  # a fold: located by arclength, else estimated
-        if arclength:
+        if settings.arclength:
             try:
                 fold = _follow_fold(tracer, xtol, past_fold)
             except (ValueError, NewtonError, ShapeError, SolverError, BranchJump) as err:
@@ -580,10 +589,11 @@ def reach(
     discretisation: Discretisation | None = None,
     *,
     legs: int = 4,
+    newton: NewtonSettings | None = None,
+    analysis: StabilitySettings | None = None,
     executor: Executor | None = None,
     progress: Callable[[dict], None] | None = None,
     verify_unstable: bool = False,
-    **newton,
 ) -> SteadyResult:
     """The steady TT state at ``physics``: Newton from the default start, or, where that fails,
     continuation from an easier point, automatically.
@@ -603,14 +613,18 @@ def reach(
     says how it was reached (``"direct"``, ``"continued from ..."``); a state from the default
     start that looks like another branch's is returned only when no easier start works, and
     then flagged: ``start = "suspect: ..."`` (``result.suspect``), in the JSON and in files.
+    ``newton``, ``analysis``: Newton's settings and the branch (``analysis.orientation``) and
+    Jacobians of every solve (:func:`steady_tank_treading`).
     """
     disc = discretisation if discretisation is not None else Discretisation()
+    analysis = analysis if analysis is not None else StabilitySettings()
+    solve = {"newton": newton, "analysis": analysis, "executor": executor}
     direct = None
     try:
-        direct = steady_tank_treading(physics, disc, executor=executor, progress=progress, **newton)
+        direct = steady_tank_treading(physics, disc, progress=progress, **solve)
     except (NewtonError, ShapeError, SolverError) as err:
         first = err
-    if newton.get("orientation", "flow") == "vorticity":
+    if analysis.orientation == "vorticity":
         # the vorticity-aligned branch: Newton from the spheroid along y slides onto the
         # in-plane branch at low lam (v = 0.90, chi = 2, lam = 4.28, N = 4) but converges at
         # lam = 8 and 16: start higher in lam and come down
@@ -651,7 +665,7 @@ def reach(
     start = None
     for easy in easier:
         try:
-            start = steady_tank_treading(easy, disc, executor=executor, **newton)
+            start = steady_tank_treading(easy, disc, **solve)
         except (NewtonError, ShapeError, SolverError):
             continue
         if easy is easier[-1] or stability(start).most_unstable[1] < 0:
@@ -677,8 +691,10 @@ def reach(
             continue
         values = list(here * (there / here) ** (np.arange(1, legs + 1) / legs))
         values[-1] = there
-        leg = branch(start.physics, disc, name, values, start=start, locate=False,
-                     executor=executor, jacobian=newton.get("jacobian", "linearised"))  # fmt: skip
+        leg = branch(start.physics, disc, name, values, start=start,
+                     continuation=ContinuationSettings(locate=False),
+                     analysis=StabilitySettings(start.orientation, "symmetric", analysis.jacobian),
+                     executor=executor)  # fmt: skip
         if leg.stopped:
             if direct is not None:
                 say(f"continuation towards {name} = {there:g} stopped; keeping the state Newton "

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 
@@ -24,6 +25,15 @@ from vesicle.bifurcation.branch import branch, reach
 from vesicle.geometry.surface import ShapeError
 from vesicle.io.files import stamped
 from vesicle.model.parameters import Discretisation, Physics
+from vesicle.model.settings import (
+    ContinuationSettings,
+    CriticalSearch,
+    NewtonSettings,
+    StabilitySettings,
+    VesicleDeprecationWarning,
+    legacy_settings,
+    refuse_unknown,
+)
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, SteadyResult, steady_tank_treading
@@ -86,18 +96,31 @@ def _bracket(f, x0: float, step: float, factor: float, moves: int = 12) -> tuple
     return min(x0, x1), max(x0, x1)
 
 
-def _critical_objects(physics, discretisation, degree, grid, v, chi):
-    """The parameter objects of either call form of :func:`critical_lambda`."""
-    sizes = {k: x for k, x in (("grid", grid), ("degree", degree)) if x is not None}
+def _critical_objects(physics, discretisation, legacy: dict) -> tuple[Physics, Discretisation]:
+    """The parameter objects of either call form of :func:`critical_lambda` (the former loose
+    ``v, chi, degree=, grid=`` are taken out of ``legacy``, with a deprecation warning)."""
+    loose = {k: legacy.pop(k) for k in ("v", "chi", "degree", "grid") if k in legacy}
+    loose = {k: x for k, x in loose.items() if x is not None}
+    sizes = {k: loose[k] for k in ("grid", "degree") if k in loose}
     if isinstance(physics, Physics):
-        if v is not None or chi is not None:
+        if "v" in loose or "chi" in loose:
             raise ValueError("give the physics as a Physics object or as v, chi, not both")
-        return physics, discretisation if discretisation is not None else Discretisation(**sizes)
-    v = physics if physics is not None else v
-    chi = discretisation if discretisation is not None else chi
-    if v is None or chi is None:
-        raise TypeError("critical_lambda needs Physics (and Discretisation), or v and chi")
-    return Physics(v=v, chi=chi), Discretisation(**sizes)
+        if discretisation is not None and sizes:
+            raise ValueError("give degree and grid in the Discretisation, not as keywords")
+    else:
+        v = physics if physics is not None else loose.get("v")
+        chi = discretisation if discretisation is not None else loose.get("chi")
+        if v is None or chi is None:
+            raise TypeError("critical_lambda needs Physics (and Discretisation), or v and chi")
+        physics, discretisation = Physics(v=v, chi=chi), None
+        loose = {"v": v, "chi": chi, **loose}
+    if loose:
+        warnings.warn(f"critical_lambda with loose {', '.join(loose)} is deprecated: pass "
+                      "Physics and Discretisation objects", VesicleDeprecationWarning,
+                      stacklevel=3)  # fmt: skip
+    if discretisation is None:
+        discretisation = Discretisation(**sizes)
+    return physics, discretisation
 
 
 @dataclass(frozen=True)
@@ -126,37 +149,33 @@ def vorticity_start_lambda(v: float) -> float:
 
 
 def critical_lambda(
-    physics: Physics | float | None = None,
+    physics: Physics | float,
     discretisation: Discretisation | float | None = None,
-    degree: int | None = None,
-    grid: int | None = None,
-    lam0: float | None = None,
-    step: float = 0.05,
-    factor: float = 1.5,
-    xtol: float = 1e-3,
+    *,
+    search: CriticalSearch | None = None,
+    newton: NewtonSettings | None = None,
+    analysis: StabilitySettings | None = None,
     executor: Executor | None = None,
     progress=None,
-    max_iterations: int | None = None,
-    *,
-    v: float | None = None,
-    chi: float | None = None,
-    jacobian: str = "linearised",
-    modes: str = "symmetric",
-    orientation: str = "flow",
-    coarse: str | Discretisation | None = "auto",
+    **legacy,
 ) -> CriticalResult:
     """Bracketing root search for ``lambda_c(v, chi)`` with continuation of the steady shape.
 
     Called as ``critical_lambda(physics, discretisation)`` (``physics.lam`` is not used: it is
-    what is sought) or as ``critical_lambda(v, chi, degree=8, grid=32)``.
+    what is sought); the former ``critical_lambda(v, chi, degree=8, grid=32)`` still works for
+    one release, with a :class:`~vesicle.model.settings.VesicleDeprecationWarning`, as do the
+    former keywords of the settings objects (``lam0``, ``step``, ``factor``, ``xtol``,
+    ``coarse``: :class:`CriticalSearch`; ``max_iterations``: :class:`NewtonSettings`;
+    ``jacobian``, ``modes``, ``orientation``: :class:`StabilitySettings`).
 
-    Starts at ``lam0`` (default: the leading-order estimate, at least 1) and at ``lam0`` moved
-    by the relative ``step`` towards the crossing (up when stable); then secant steps in
-    ``log lam``, pushed 20 % past the predicted root and limited to a factor ``factor``, until
-    ``max omega_I`` changes sign; then Brent's method to ``xtol``.  Each evaluation starts
-    Newton (at most ``max_iterations`` iterations) from the nearest solution found so far, with
-    chord iterations on its Jacobian (:func:`steady_tank_treading`), so a nearby evaluation
-    costs little more than the stability Jacobian itself.
+    ``search`` (:class:`CriticalSearch`): starts at ``lam0`` (default: the leading-order
+    estimate, at least 1) and at ``lam0`` moved by the relative ``step`` towards the crossing
+    (up when stable); then secant steps in ``log lam``, pushed 20 % past the predicted root and
+    limited to a factor ``factor``, until ``max omega_I`` changes sign; then Brent's method to
+    ``xtol``.  Each evaluation starts Newton (at most ``newton.max_iterations``) from the
+    nearest solution found so far, with chord iterations on its Jacobian
+    (:func:`steady_tank_treading`), so a nearby evaluation costs little more than the stability
+    Jacobian itself.
 
     ``coarse``: a first search at a coarse resolution (``"auto"``: :data:`COARSE`, N = 4 on
     16 x 32, when ``discretisation`` is finer, ``lam0`` is not given and the branch is the
@@ -169,17 +188,21 @@ def critical_lambda(
     search from there that fails fall back to the search without it (logged).  Progress
     records of the coarse search carry ``"level": "coarse"``.
 
-    ``modes`` are the perturbations whose growth is bracketed (``"general"`` for the
+    ``analysis.modes`` are the perturbations whose growth is bracketed (``"general"`` for the
     out-of-plane branch, which loses stability to perturbations that break the x-z symmetry);
-    ``orientation`` the TT branch of the first evaluation (later ones continue from it).
+    ``analysis.orientation`` the TT branch of the first evaluation (later ones continue from
+    it); ``newton.max_iterations`` limits each evaluation's Newton.
     """
-    if not (np.isfinite(xtol) and xtol > 0):
-        raise ValueError(f"xtol must be a positive number, got {xtol}")
-    physics, discretisation = _critical_objects(physics, discretisation, degree, grid, v, chi)
-    options = {"factor": factor, "executor": executor, "progress": progress,
-               "max_iterations": max_iterations, "jacobian": jacobian, "modes": modes,
-               "orientation": orientation}  # fmt: skip
-    coarse_disc = _coarse_discretisation(discretisation, coarse, lam0, orientation, modes)
+    physics, discretisation = _critical_objects(physics, discretisation, legacy)
+    search = legacy_settings("critical_lambda", CriticalSearch, search, legacy) or CriticalSearch()
+    newton = legacy_settings("critical_lambda", NewtonSettings, newton, legacy)
+    analysis = legacy_settings("critical_lambda", StabilitySettings, analysis, legacy)
+    refuse_unknown("critical_lambda", legacy)
+    analysis = analysis if analysis is not None else StabilitySettings()
+    lam0, step, xtol = search.lam0, search.step, search.xtol
+    options = {"factor": search.factor, "executor": executor, "progress": progress,
+               "newton": newton, "analysis": analysis}  # fmt: skip
+    coarse_disc = _coarse_discretisation(discretisation, search.coarse, lam0, analysis)
     given = {"lam0": lam0, "step": step}  # the search without the coarse start
     first, coarse_result = None, None
     if coarse_disc is not None:
@@ -214,24 +237,23 @@ def critical_lambda(
     return dataclasses.replace(result, coarse=coarse_result)
 
 
-def _coarse_discretisation(disc, coarse, lam0, orientation, modes) -> Discretisation | None:
+def _coarse_discretisation(disc, coarse, lam0, analysis) -> Discretisation | None:
     if coarse is None or isinstance(coarse, Discretisation):
         return coarse
-    if coarse != "auto":
-        raise ValueError(f"coarse must be 'auto', None or a Discretisation, got {coarse!r}")
     finer = disc.degree > COARSE["degree"] and disc.grid > COARSE["grid"]
-    if lam0 is not None or not finer or orientation != "flow" or modes != "symmetric":
+    in_plane = analysis.orientation == "flow" and analysis.modes == "symmetric"
+    if lam0 is not None or not finer or not in_plane:
         return None
     return disc.replace(n_rot=None, **COARSE)
 
 
-def _first_state(physics, disc, start, newton, orientation) -> SteadyResult:
+def _first_state(physics, disc, start, solve: dict) -> SteadyResult:
     """The first evaluation's state: continued from the coarse critical state ``start`` (the
     same parameters at a coarser resolution) when it converges to a state like it, else as
     ``vesicle tt`` starts (continuation where Newton cannot)."""
     if start is not None:
         try:
-            steady = steady_tank_treading(physics, disc, initial=start, **newton)
+            steady = steady_tank_treading(physics, disc, initial=start, **solve)
         except _FAILURES as err:
             log.warning("Newton from the coarse critical state failed (%s): default start", err)
         else:
@@ -241,7 +263,7 @@ def _first_state(physics, disc, start, newton, orientation) -> SteadyResult:
             log.warning("the state continued from the coarse one turned by %.3g rad (psi %.4g "
                         "against %.4g): another branch; default start", turned, steady.psi,
                         start.psi)  # fmt: skip
-    state = reach(physics, disc, verify_unstable=True, orientation=orientation, **newton)
+    state = reach(physics, disc, verify_unstable=True, **solve)
     if state.suspect:  # the search would start on another branch: refuse, say why
         raise NewtonError(
             f"no trustworthy first state at lam = {physics.lam:g}, chi = {physics.chi:g} for the "
@@ -253,7 +275,7 @@ def _first_state(physics, disc, start, newton, orientation) -> SteadyResult:
 
 def _search(
     physics, discretisation, lam0, step, xtol, first, *, factor, executor, progress,
-    max_iterations, jacobian, modes, orientation,
+    newton: NewtonSettings | None, analysis: StabilitySettings,
 ) -> tuple[CriticalResult, dict[float, SteadyResult]]:  # fmt: skip
     """The bracket and Brent's method at one resolution; the result and the states found."""
     history: list[tuple[float, float, float]] = []
@@ -263,30 +285,30 @@ def _search(
         for done, _, w_i in history:  # Brent re-evaluates the bracket's ends: reuse them
             if done == lam:
                 return w_i
-        newton = {"executor": executor, "progress": progress, "max_iterations": max_iterations,
-                  "jacobian": jacobian}  # fmt: skip
+        solve = {"executor": executor, "progress": progress, "newton": newton,
+                 "analysis": analysis}  # fmt: skip
         try:
             if solutions:
                 nearest = min(solutions, key=lambda x: abs(np.log(x / lam)))
                 if abs(np.log(lam / nearest)) <= JUMP_RATIO:
                     steady = steady_tank_treading(physics.replace(lam=lam), discretisation,
-                                                  initial=solutions[nearest], **newton)  # fmt: skip
+                                                  initial=solutions[nearest], **solve)  # fmt: skip
                 else:  # a far secant step: by a branch with step halving and its jump guard,
                     # so that it cannot land on another steady state (measured: chi = 3.162,
                     # N = 4, one Newton jump found lam_c = 6.627 on another branch, not 8.590)
                     leg = branch(solutions[nearest].physics, discretisation, "lam", [lam],
-                                 start=solutions[nearest], locate=False, arclength=False,
-                                 executor=executor, jacobian=jacobian, modes=modes)  # fmt: skip
+                                 start=solutions[nearest],
+                                 continuation=ContinuationSettings(locate=False, arclength=False),
+                                 analysis=analysis, executor=executor)  # fmt: skip
                     if leg.stopped:
                         raise NewtonError(leg.stopped)
                     steady = leg.points[-1].steady
             else:  # the first: from the coarse state, or as vesicle tt starts
-                steady = _first_state(physics.replace(lam=lam), discretisation, first, newton,
-                                      orientation)  # fmt: skip
+                steady = _first_state(physics.replace(lam=lam), discretisation, first, solve)
         except NewtonError as err:
             raise NewtonError(f"no steady TT state at lam = {lam:g}: {err}") from err
         solutions[lam] = steady
-        w_r, w_i = stability(steady, modes=modes).most_unstable
+        w_r, w_i = stability(steady, modes=analysis.modes).most_unstable
         history.append((lam, w_r, w_i))
         log.info("lam = %.5g: omega = (%.4g, %.4g)", lam, w_r, w_i)
         if progress is not None:
@@ -294,7 +316,7 @@ def _search(
         return w_i
 
     lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(physics.v))
-    if orientation == "vorticity":  # stable above its lambda_c: bracket the decay rate instead
+    if analysis.orientation == "vorticity":  # stable above lambda_c: bracket the decay rate
         if lam0 is None:
             lam = vorticity_start_lambda(physics.v)
         lo, hi = _bracket(lambda x: -growth(x), lam, step, factor)

@@ -37,10 +37,17 @@ from vesicle.bifurcation.critical import critical_lambda, vorticity_start_lambda
 from vesicle.geometry.surface import ShapeError
 from vesicle.io.files import stamped
 from vesicle.model.parameters import Discretisation, Physics
+from vesicle.model.settings import (
+    ContinuationSettings,
+    CriticalSearch,
+    StabilitySettings,
+    legacy_settings,
+    refuse_unknown,
+)
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, SteadyResult, steady_tank_treading
-from vesicle.steady.stability import default_modes, stability
+from vesicle.steady.stability import stability
 
 __all__ = ["NeutralCurve", "NeutralPoint", "neutral_curve"]
 
@@ -188,18 +195,19 @@ def _state_key(state: SteadyResult) -> tuple:
 
 
 class _Tracer:
-    def __init__(self, physics, disc, xtol, margin, progress, jacobian, executor,
-                 modes="symmetric", side=1, known=(), checkpoint=None):  # fmt: skip
+    def __init__(self, physics, disc, xtol, margin, progress, analysis: StabilitySettings,
+                 executor, known=(), checkpoint=None):  # fmt: skip
         self.physics, self.disc, self.xtol, self.margin = physics, disc, xtol, margin
         # points already traced (a resumed curve), by their exact chi, and the callback given
         # each new point (with its start state) before ``progress``
         self.known = {p.chi: p for p in known}
         self.checkpoint = checkpoint
         self.resumed: set[float] = set()
-        self.progress, self.jacobian, self.modes = progress, jacobian, modes
+        self.progress, self.analysis, self.modes = progress, analysis, analysis.modes
         # +1: TT stable below lambda_c (the in-plane branch); -1: stable above it (vorticity)
-        self.side = side
-        self.options = {"jacobian": jacobian, "executor": executor}
+        self.side = -1 if analysis.orientation == "vorticity" else 1
+        self.executor = executor
+        self.options = {"analysis": analysis, "executor": executor}  # of branch, reach
         # branch legs of _to that failed, by (id of the start state, parameter, value), with
         # the state and the error: emptied at each new point
         self._failed_legs: dict[tuple, NewtonError] = {}
@@ -208,7 +216,9 @@ class _Tracer:
         return self.physics.replace(chi=float(chi), lam=float(lam))
 
     def newton(self, physics: Physics, start: SteadyResult) -> SteadyResult:
-        return steady_tank_treading(physics, self.disc, initial=start, **self.options)
+        analysis = StabilitySettings(start.orientation, self.modes, self.analysis.jacobian)
+        return steady_tank_treading(physics, self.disc, initial=start, analysis=analysis,
+                                    executor=self.executor)  # fmt: skip
 
     def _to(
         self, start: SteadyResult, parameter: str, value: float, direct: bool = True
@@ -226,8 +236,9 @@ class _Tracer:
         if key in self._failed_legs:  # the same leg from the same state: the branch is
             # deterministic, so it fails again (a move tried directly, then by branches)
             raise self._failed_legs[key]
-        leg = branch(start.physics, self.disc, parameter, [value], start=start, locate=False,
-                     arclength=False, modes=self.modes, **self.options)  # fmt: skip
+        leg = branch(start.physics, self.disc, parameter, [value], start=start,
+                     continuation=ContinuationSettings(locate=False, arclength=False),
+                     **self.options)  # fmt: skip
         if leg.stopped:
             err = NewtonError(f"could not continue to {parameter} = {value:g}: {leg.stopped}")
             self._failed_legs[key] = err
@@ -285,8 +296,9 @@ class _Tracer:
         ratio = (1.0 + self.margin) ** side  # towards the loss of stability
         for _ in range(int(math.log(3.0) / math.log(1.0 + self.margin)) // 2 + 1):  # 3x lam
             values = [lam * ratio, lam * ratio**2]
-            b = branch(state.physics, self.disc, "lam", values, start=state, xtol=self.xtol,
-                       modes=self.modes, **self.options)  # fmt: skip
+            b = branch(state.physics, self.disc, "lam", values, start=state,
+                       continuation=ContinuationSettings(xtol=self.xtol),
+                       **self.options)  # fmt: skip
             crossings = [s for s in b.special_points if side * (s.value - lam) > 0]
             if crossings:
                 return crossings[0], b
@@ -388,8 +400,9 @@ class _Tracer:
             steps = max(1, math.ceil(math.log(top / probe) / math.log(1.0 + 0.5 * self.margin)))
             values = [top * (probe / top) ** (k / steps) for k in range(1, steps + 1)]
             values[-1] = probe
-            down = branch(high.physics, self.disc, "lam", values, start=high, xtol=self.xtol,
-                          arclength=False, modes=self.modes, **self.options)  # fmt: skip
+            down = branch(high.physics, self.disc, "lam", values, start=high,
+                          continuation=ContinuationSettings(xtol=self.xtol, arclength=False),
+                          **self.options)  # fmt: skip
         except _FAILURES as err:
             log.info("chi = %.4g: no other branch past the fold at %.6g (%s)", fold.chi,
                      fold.lambda_c, err)  # fmt: skip
@@ -445,13 +458,9 @@ def _predict(points: list[NeutralPoint], chi: float) -> float:
     return b.lambda_c * (chi / b.chi) ** slope
 
 
-def curve_inputs(physics: Physics | float, chi: Sequence[float], modes: str | None,
-                 orientation: str) -> tuple[Physics, list[float], str]:  # fmt: skip
-    """A neutral curve's ``physics`` (or ``v``), ``chi`` values and ``modes`` checked before any
-    work: the physics of every chi valid, the chi positive (returned ascending, without
-    repeats), the modes defaulting by orientation (:func:`default_modes`)."""
-    if modes is None:
-        modes = default_modes(orientation)
+def curve_inputs(physics: Physics | float, chi: Sequence[float]) -> tuple[Physics, list[float]]:
+    """A neutral curve's ``physics`` (or ``v``) and ``chi`` values checked before any work: the
+    physics of every chi valid, the chi positive (returned ascending, without repeats)."""
     if not isinstance(physics, Physics):
         physics = Physics(v=float(physics))
     chis = sorted({float(c) for c in chi})
@@ -459,7 +468,7 @@ def curve_inputs(physics: Physics | float, chi: Sequence[float], modes: str | No
         raise ValueError(f"chi values must be positive, got {list(chi)}")
     for c in chis:
         physics.replace(chi=c)
-    return physics, chis, modes
+    return physics, chis
 
 
 def neutral_curve(
@@ -471,13 +480,12 @@ def neutral_curve(
     margin: float = 0.03,
     type_tol: float = 0.02,
     locate_type_change: bool = True,
-    progress: Callable[[dict], None] | None = None,
-    jacobian: str = "linearised",
+    analysis: StabilitySettings | None = None,
     executor=None,
-    orientation: str = "flow",
-    modes: str | None = None,
+    progress: Callable[[dict], None] | None = None,
     known: Sequence[NeutralPoint] = (),
     checkpoint: Callable[[NeutralPoint], None] | None = None,
+    **legacy,
 ) -> NeutralCurve:
     """Trace ``lambda_c(chi)`` through the values ``chi`` (see the module docstring).
 
@@ -493,16 +501,16 @@ def neutral_curve(
         Relative distance below the predicted lambda_c at which each chi is started.
     type_tol : float
         Relative width in chi to which a change of bifurcation type is located.
+    analysis : StabilitySettings
+        ``orientation``: the TT branch whose loss of stability is traced; ``modes``: the
+        perturbations analysed (default by orientation: general on the vorticity branch, which
+        loses stability to modes that break the x-z symmetry); ``jacobian``: as for
+        :func:`vesicle.steady.newton.steady_tank_treading`.  The former keywords
+        ``orientation``, ``modes``, ``jacobian`` work for one release, with a warning.
+    executor
+        Runs finite-difference Jacobian columns.
     progress : callable, optional
         Given each point's summary as it is found.
-    jacobian, executor
-        As for :func:`vesicle.steady.newton.steady_tank_treading` (the executor runs
-        finite-difference Jacobian columns).
-    orientation : {"flow", "vorticity"}
-        The TT branch whose loss of stability is traced (the out-of-plane branch: issue 15).
-    modes : {"symmetric", "general"}, optional
-        The perturbations analysed; default "symmetric" for the in-plane branch and "general"
-        for the vorticity branch (it loses stability to modes that break the x-z symmetry).
     known : sequence of NeutralPoint
         Points of an interrupted trace of the same curve (same v, resolution, orientation,
         modes and ``xtol``), each with its ``start`` state (:func:`vesicle.bifurcation.checkpoint.
@@ -518,12 +526,15 @@ def neutral_curve(
     for name, value in (("xtol", xtol), ("type_tol", type_tol)):
         if not (math.isfinite(value) and value > 0):
             raise ValueError(f"{name} must be a positive number, got {value}")
-    physics, chis, modes = curve_inputs(physics, chi, modes, orientation)
+    analysis = legacy_settings("neutral_curve", StabilitySettings, analysis, legacy)
+    refuse_unknown("neutral_curve", legacy)
+    analysis = analysis if analysis is not None else StabilitySettings()
+    orientation, modes = analysis.orientation, analysis.modes
+    physics, chis = curve_inputs(physics, chi)
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
-    side = -1 if orientation == "vorticity" else 1
-    tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, jacobian, executor,
-                     modes, side, known, checkpoint)  # fmt: skip
+    tracer = _Tracer(physics, disc, float(xtol), float(margin), progress, analysis, executor,
+                     known, checkpoint)  # fmt: skip
     # the seed: the chi nearest 1 first; where no critical point is found there, the next
     # nearest, and so on.  The vorticity branch is seeded from the largest chi down: its
     # lambda_c falls with chi and may not exist at low chi (v = 0.90, chi = 2, N = 4: unstable
@@ -597,8 +608,8 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
     side = tracer.side
     start = None
     try:
-        c = critical_lambda(tracer.at(chi, 1.0), tracer.disc, xtol=xtol, modes=modes,
-                            orientation=orientation, **tracer.options)  # fmt: skip
+        c = critical_lambda(tracer.at(chi, 1.0), tracer.disc, search=CriticalSearch(xtol=xtol),
+                            **tracer.options)  # fmt: skip
         lam_c = c.lambda_c
         # a stable state of the search (not a fresh start from the spheroid, which at N = 8
         # may need a detour by continuation from lam = 1), half a margin or more from lambda_c
@@ -614,12 +625,12 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
                     "following the branch instead", chi, err)  # fmt: skip
         lam = (vorticity_start_lambda(tracer.physics.v) if side < 0
                else 0.5 * max(1.0, misbah_critical_lambda(tracer.physics.v)))  # fmt: skip
-        state = reach(tracer.at(chi, lam), tracer.disc, orientation=orientation,
-                      **tracer.options)  # fmt: skip
+        state = reach(tracer.at(chi, lam), tracer.disc, **tracer.options)
         ratio = 1.1**side
         values = [lam * ratio**k for k in range(1, 26)]  # up to 10.8 x lam
-        b = branch(state.physics, tracer.disc, "lam", values, start=state, xtol=0.05 * lam,
-                   modes=modes, **tracer.options)  # fmt: skip
+        b = branch(state.physics, tracer.disc, "lam", values, start=state,
+                   continuation=ContinuationSettings(xtol=0.05 * lam),
+                   **tracer.options)  # fmt: skip
         if not b.special_points and not b.stopped:
             raise NewtonError(f"no loss of stability at chi = {chi:g} between lam = {lam:g} "
                               f"and {values[-1]:g}") from err  # fmt: skip
@@ -631,7 +642,7 @@ def _seed(tracer: _Tracer, chi: float, xtol: float, modes: str, orientation: str
         start = max(below, key=lambda p: side * p.physics.lam).steady if below else state
     if start is None:
         start = reach(tracer.at(chi, lam_c * (1 - side * tracer.margin)), tracer.disc,
-                      orientation=orientation, **tracer.options)  # fmt: skip
+                      **tracer.options)  # fmt: skip
     return tracer.point(start, chi, lam_c)
 
 

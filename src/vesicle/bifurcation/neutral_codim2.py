@@ -70,6 +70,12 @@ from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_chang
 from vesicle.geometry.diagnostics import diagnose
 from vesicle.geometry.surface import ShapeError
 from vesicle.model.parameters import Discretisation, Physics
+from vesicle.model.settings import (
+    CriticalSearch,
+    StabilitySettings,
+    legacy_settings,
+    refuse_unknown,
+)
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, steady_tank_treading
@@ -228,9 +234,7 @@ class _Context:
     physics: Physics
     disc: Discretisation
     eq: SteadyEquations
-    modes: str
-    orientation: str
-    jacobian: str
+    analysis: StabilitySettings
     settings: codim2.Settings
     side: int
     bounds: list
@@ -249,6 +253,18 @@ class _Context:
     stable: list = field(default_factory=list)
     #: the points of the curve under way (what an interruption keeps of it)
     current: list = field(default_factory=list)
+
+    @property
+    def modes(self) -> str:
+        return self.analysis.modes
+
+    @property
+    def orientation(self) -> str:
+        return self.analysis.orientation
+
+    @property
+    def jacobian(self) -> str:
+        return self.analysis.jacobian
 
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
@@ -286,8 +302,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
     side, lo, hi = ctx.side, ctx.bounds[1][0], ctx.bounds[1][1]
     state = start if start is not None else _curve_start(ctx, chi, lam0)
     if state is None:
-        state = reach(ctx.at(chi, lam0), ctx.disc, orientation=ctx.orientation,
-                      jacobian=ctx.jacobian)  # fmt: skip
+        state = reach(ctx.at(chi, lam0), ctx.disc, analysis=ctx.analysis)  # fmt: skip
     growth, freq = _leading(state, ctx.modes)
     if growth >= 0 and side > 0 and lam0 > LOW_START and lo <= LOW_START:
         # unstable there: the branch from low lambda is the one asked for, and the state
@@ -296,8 +311,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
         # branch from lambda = 1 is stable up to its fold at 5.35)
         try:
             low = _curve_start(ctx, chi, LOW_START) or reach(
-                ctx.at(chi, LOW_START), ctx.disc, orientation=ctx.orientation,
-                jacobian=ctx.jacobian)  # fmt: skip
+                ctx.at(chi, LOW_START), ctx.disc, analysis=ctx.analysis)  # fmt: skip
             state = low
             growth, freq = _leading(state, ctx.modes)
         except _FAILURES as err:
@@ -309,11 +323,9 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
                               f"[{lo:g}, {hi:g}]")  # fmt: skip
         try:  # the same branch, continued from the last state (one Newton solve)
             state = steady_tank_treading(ctx.at(chi, lam), ctx.disc, initial=state,
-                                         orientation=ctx.orientation,
-                                         jacobian=ctx.jacobian)  # fmt: skip
+                                         analysis=ctx.analysis)  # fmt: skip
         except _FAILURES:  # (a fold on the way down): reached afresh, as the first state was
-            state = reach(ctx.at(chi, lam), ctx.disc, orientation=ctx.orientation,
-                          jacobian=ctx.jacobian)  # fmt: skip
+            state = reach(ctx.at(chi, lam), ctx.disc, analysis=ctx.analysis)  # fmt: skip
         growth, freq = _leading(state, ctx.modes)
     last: tuple[float, float] | None = None  # the previous state's (lam, growth)
     last_rate: float | None = None  # |da / dlam| of the last step
@@ -330,8 +342,9 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
                               f"{state.lam:.4g} (the box ends at {hi if side > 0 else lo:g})")
         while nxt is None:
             try:
+                along = StabilitySettings(state.orientation, ctx.modes, ctx.jacobian)
                 nxt = steady_tank_treading(ctx.at(chi, lam), ctx.disc, initial=state,
-                                           jacobian=ctx.jacobian)  # fmt: skip
+                                           analysis=along)  # fmt: skip
                 rate = float(np.linalg.norm(nxt.a - state.a)) / abs(lam - state.lam)
                 if last_rate is not None and rate > JUMP * last_rate:
                     # the shape moved far more than the last step's rate says: Newton went
@@ -397,8 +410,7 @@ def _curve_start(ctx: _Context, chi: float, lam0: float):
     for start in starts:
         try:
             state = steady_tank_treading(ctx.at(chi, lam0), ctx.disc, initial=start,
-                                         orientation=ctx.orientation,
-                                         jacobian=ctx.jacobian)  # fmt: skip
+                                         analysis=ctx.analysis)  # fmt: skip
         except _FAILURES as err:
             log.info("chi = %.4g: no state from a nearby one (%s)", chi, err)
             continue
@@ -441,7 +453,7 @@ def _coarse_first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePo
     resolutions only), then solved for at this one from there (:func:`_refined`).  ``None``
     where that fails: then :func:`_first_loss` steps at full resolution (at v = 0.90, N = 8,
     chi = 0.1: about 5 min, most of it reaching a first state from the default start)."""
-    coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
+    coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.analysis)
     if coarse is None:
         return None
     try:
@@ -476,8 +488,7 @@ def _refined(ctx: _Context, chi: float, initial, lam_state: float, lam_c: float,
     another unstable eigenvalue (logged, with ``what``)."""
     try:
         state = steady_tank_treading(ctx.at(chi, lam_state), ctx.disc, initial=initial,
-                                     orientation=ctx.orientation,
-                                     jacobian=ctx.jacobian)  # fmt: skip
+                                     analysis=ctx.analysis)  # fmt: skip
     except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
         log.info("%s at chi = %.4g: %s", what, chi, err)
         return None
@@ -537,12 +548,12 @@ def _coarse_seed(ctx: _Context, chi: float) -> codim2.CurvePoint | None:
     search's stable state nearest it (:func:`_refined`).  ``None`` where that fails (then the
     full-resolution search seeds).  Saves that search's bracketing and Brent evaluations at
     full resolution (at v = 0.90, N = 8: 325 s)."""
-    coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
+    coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.analysis)
     if coarse is None:
         return None
     try:
-        c = critical_lambda(ctx.at(chi, 1.0), coarse, modes=ctx.modes, coarse=None,
-                            orientation=ctx.orientation, jacobian=ctx.jacobian)  # fmt: skip
+        c = critical_lambda(ctx.at(chi, 1.0), coarse, search=CriticalSearch(coarse=None),
+                            analysis=ctx.analysis)  # fmt: skip
     except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
         log.info("coarse seed at chi = %.4g: %s", chi, err)
         return None
@@ -574,8 +585,7 @@ def _seed(ctx: _Context, chi: float) -> codim2.CurvePoint:
     if point is not None:
         return point
     try:
-        c = critical_lambda(ctx.at(chi, 1.0), ctx.disc, modes=ctx.modes,
-                            orientation=ctx.orientation, jacobian=ctx.jacobian)  # fmt: skip
+        c = critical_lambda(ctx.at(chi, 1.0), ctx.disc, analysis=ctx.analysis)  # fmt: skip
         stable = [(lam, s) for (lam, _, w_i), s in zip(c.history, c.states, strict=True)
                   if w_i < 0]  # fmt: skip
         if not stable:
@@ -963,9 +973,7 @@ def neutral_curve_codim2(
     chi: Sequence[float],
     discretisation: Discretisation | None = None,
     *,
-    orientation: str = "flow",
-    modes: str | None = None,
-    jacobian: str = "linearised",
+    analysis: StabilitySettings | None = None,
     form: str = "spec",
     lam_range: tuple[float, float] = (0.5, 100.0),
     settings: codim2.Settings | None = None,
@@ -973,6 +981,7 @@ def neutral_curve_codim2(
     locate_type_change: bool = True,
     cusps: bool = False,
     progress: Callable[[dict], None] | None = None,
+    **legacy,
 ) -> NeutralCurve:
     """The neutral curve through the requested ``chi`` by two-parameter continuation (see the
     module docstring).
@@ -983,8 +992,10 @@ def neutral_curve_codim2(
         Its ``v`` and ``flow`` (or just ``v``).
     chi : sequence of float
         The shear rates to report (positive; reported ascending).
-    orientation, modes, jacobian
-        As for :func:`vesicle.bifurcation.neutral.neutral_curve`.
+    analysis : StabilitySettings
+        The branch, modes and Jacobians, as for :func:`vesicle.bifurcation.neutral.neutral_curve`
+        (the former keywords ``orientation``, ``modes``, ``jacobian`` work for one release, with
+        a warning).
     form : {"spec", "curvature"}
         The Jacobian the curves are defined by (:data:`.steady_codim2.FORMS`): SPEC §9's
         operator (the default: what ``vesicle critical`` and the tracer compute) or the Newton
@@ -1011,7 +1022,11 @@ def neutral_curve_codim2(
         ``method = "codim2"``, with ``bt_points``, ``cusp_points`` and ``turn_points``; each
         point with ``located``, ``residual`` and ``other_unstable``.
     """
-    physics, chis, modes = curve_inputs(physics, chi, modes, orientation)
+    analysis = legacy_settings("neutral_curve_codim2", StabilitySettings, analysis, legacy)
+    refuse_unknown("neutral_curve_codim2", legacy)
+    analysis = analysis if analysis is not None else StabilitySettings()
+    orientation, modes, jacobian = analysis.orientation, analysis.modes, analysis.jacobian
+    physics, chis = curve_inputs(physics, chi)
     lo, hi = map(float, lam_range)
     if not 0 < lo < hi:
         raise ValueError(f"lam_range must be (low, high) with 0 < low < high, got {lam_range}")
@@ -1029,7 +1044,7 @@ def neutral_curve_codim2(
         if progress is not None:
             progress(d)
 
-    ctx = _Context(physics, disc, eq, modes, orientation, jacobian,
+    ctx = _Context(physics, disc, eq, analysis,
                    settings or DEFAULT_SETTINGS, side, bounds, max_points, say,
                    [math.log(c) for c in chis])  # fmt: skip
     ctx.curves_eq = eq
@@ -1058,7 +1073,7 @@ def neutral_curve_codim2(
                 break
             tried.add(c)
             turn = _turn_beyond(ctx, c)
-            coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.orientation, ctx.modes)
+            coarse = _coarse_discretisation(ctx.disc, "auto", None, ctx.analysis)
             try:
                 if turn is not None and coarse is not None:  # past where the folds end: the
                     # search at the coarse resolution only (one that finds nothing steps the

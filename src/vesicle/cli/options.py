@@ -1,7 +1,8 @@
 """Command-line options of the parameter objects: one default per parameter, read from the
 objects themselves (:class:`~vesicle.model.parameters.Physics`, :class:`~vesicle.model.parameters.
 Discretisation`, :data:`vesicle.dynamics.integrators.RUN_DEFAULTS`), and the objects built from
-them."""
+them; and the options of the tasks (:data:`vesicle.workflows.tasks.OPTIONS`), declared once for the
+commands and the sweeps (:func:`task_option`)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,15 @@ import click
 from vesicle.model.flows import FLOWS
 from vesicle.model.parameters import METHODS, Discretisation, Physics
 from vesicle.stokes.backends import BACKENDS
+from vesicle.workflows.tasks import OPTIONS
 
-__all__ = ["discretisation_options", "make_discretisation", "make_physics", "physics_options"]
+__all__ = [
+    "discretisation_options",
+    "make_discretisation",
+    "make_physics",
+    "physics_options",
+    "task_option",
+]
 
 _P = Physics()
 _D = Discretisation()
@@ -61,6 +69,35 @@ def discretisation_options(names=("grid", "degree", "n_rot", "backend", "method"
                                 "of 16 latitudes or fewer, else <= 2]."),
     }  # fmt: skip
     return _apply([table[n] for n in names])
+
+
+def task_option(key: str, name: str | None = None, **changes):
+    """The command-line option of the task option ``key`` (:data:`OPTIONS`): its spelling,
+    type, choices, default and help, as a sweep's ``[task]`` table takes it.  ``name``: the
+    Python parameter where it differs from the key; ``changes``: click keywords overriding
+    those (a command-specific help, say)."""
+    o = OPTIONS[key]
+    if not o.cli:
+        raise ValueError(f"{key} is a sweep-only option")
+    flag = o.flag or "--" + key.replace("_", "-")
+    if bool in o.types:
+        if "/" in flag:  # --coarse/--no-coarse
+            kwargs = {"default": o.default, "show_default": True}
+        else:  # --cusps; --no-type-change sets the key to false
+            kwargs = {"is_flag": True}
+            name = name or flag[2:].replace("-", "_")
+    elif o.choices is not None:
+        kwargs = {"type": click.Choice(list(o.choices)), "default": o.default}
+    elif int in o.types and float not in o.types:
+        kwargs = {"type": int, "default": o.default}
+    elif float in o.types:
+        kwargs = {"type": float, "default": o.default}
+    else:
+        kwargs = {"type": str, "default": o.default}
+    if o.default is not None and "is_flag" not in kwargs:
+        kwargs["show_default"] = True
+    kwargs = {"help": o.help, **kwargs, **changes}
+    return click.option(flag, name or key, **kwargs)
 
 
 def make_physics(options: dict, **overrides) -> Physics:

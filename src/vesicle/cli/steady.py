@@ -9,9 +9,8 @@ from pathlib import Path
 
 import click
 
-from vesicle.bifurcation.branch import branch, reach
+from vesicle.bifurcation.branch import branch
 from vesicle.bifurcation.checkpoint import Checkpoint, states_folder
-from vesicle.bifurcation.critical import critical_lambda, critical_summary
 from vesicle.bifurcation.neutral import neutral_curve
 from vesicle.bifurcation.neutral_codim2 import CurveInterrupted, neutral_curve_codim2
 from vesicle.cli.base import (
@@ -30,16 +29,21 @@ from vesicle.cli.options import (
     make_discretisation,
     make_physics,
     physics_options,
+    task_option,
 )
 from vesicle.io.files import stamped, write_text_atomically
 from vesicle.model.parameters import Physics
+from vesicle.model.settings import (
+    ContinuationSettings,
+    StabilitySettings,
+)
 from vesicle.parallel import executor
 from vesicle.ranges import parse_range
 from vesicle.solve.solver import SolverError
-from vesicle.steady.files import steady_summary, write_steady
-from vesicle.steady.newton import ORIENTATIONS, UPDATES, NewtonError
-from vesicle.steady.problem import JACOBIANS
-from vesicle.steady.stability import default_modes, stability
+from vesicle.steady.files import write_steady
+from vesicle.steady.newton import NewtonError
+from vesicle.steady.stability import stability
+from vesicle.workflows import tasks
 from vesicle.workflows.config import read_config
 
 
@@ -66,20 +70,8 @@ def _echo_progress(info: dict) -> None:
     )
 
 
-_MAX_ITERATIONS = click.option(
-    "--max-iterations",
-    type=int,
-    default=None,
-    help="Newton iterations per steady state before giving up [default: 30; 12 with "
-    "--updates none].",
-)
-_UPDATES = click.option(
-    "--updates",
-    type=click.Choice(UPDATES),
-    default="broyden",
-    show_default=True,
-    help="Newton's Jacobian: reused with Broyden updates, or fresh at every step (reference).",
-)
+_MAX_ITERATIONS = task_option("max_iterations")
+_UPDATES = task_option("updates")
 
 
 _WORKERS = click.option(
@@ -96,43 +88,16 @@ _STATES = click.option(
     help="Also write each point's steady state (shape, multipliers, Jacobian, all eigenvalues "
     "and modes) as a steady-state file in this folder (vesicle plot / run --init read them).",
 )
-_ORIENTATION = click.option(
-    "--orientation",
-    type=click.Choice(list(ORIENTATIONS)),
-    default="flow",
-    show_default=True,
-    help="The TT branch: long axis in the shear plane (flow) or along the vorticity axis y "
-    "(vorticity; start: the spheroid along y). A state on the other branch is refused.",
-)
-_STABILITY_MODES = click.option(
-    "--modes",
-    type=click.Choice(["symmetric", "general"]),
-    default=None,
-    help="Perturbations of the stability analysis [default: symmetric; general with "
-    "--orientation vorticity, whose instability breaks the x-z symmetry].",
-)
-_JACOBIAN = click.option(
-    "--jacobian",
-    type=click.Choice(JACOBIANS),
-    default="linearised",
-    show_default=True,
-    help="How Newton and stability form Jacobians: the solve differentiated (no solves per "
-    "column), or finite differences of perturbed solves (the reference; --workers/--scheduler "
-    "run their columns).",
-)
+_ORIENTATION = task_option("orientation")
+_STABILITY_MODES = task_option("modes")
+_JACOBIAN = task_option("jacobian")
 
 
 @main.command()
 @physics_options()
 @discretisation_options()
 @click.option("--stability", "with_stability", is_flag=True, help="Eigenvalues of the state.")
-@click.option(
-    "--modes",
-    type=click.Choice(["symmetric", "general"]),
-    default="symmetric",
-    show_default=True,
-    help="Perturbations analysed: the steady state's symmetry class, or all (the full basis).",
-)
+@_STABILITY_MODES
 @_ORIENTATION
 @_MAX_ITERATIONS
 @_UPDATES
@@ -160,45 +125,24 @@ def tt(
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
+        task = {"modes": modes, "orientation": orientation, "max_iterations": max_iterations,
+                "updates": updates, "jacobian": jacobian}  # fmt: skip
         with _executor(workers, scheduler) as pool:
-            r = reach(
-                physics,
-                disc,
-                executor=pool,
-                progress=_echo_progress,
-                max_iterations=max_iterations,
-                updates=updates,
-                jacobian=jacobian,
-                orientation=orientation,
-            )
-            s = stability(r, modes=modes, executor=pool) if with_stability else None
+            r, s = tasks.steady_state(physics, disc, task, with_stability, pool, _echo_progress)
         if out is not None:
             write_steady(out, r, s, attributes={"command": command_line(ctx)})
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
-    summary = {**steady_summary(r, s), "updates": updates, "jacobian": jacobian}
-    _print(summary, as_json)
+    _print(tasks.steady_json(r, s, task), as_json)
 
 
 @main.command()
 @physics_options(("v", "chi", "flow"))
 @discretisation_options()
-@click.option("--lam0", type=float, default=None, help="First lambda to try.")
-@click.option(
-    "--step",
-    type=float,
-    default=0.05,
-    show_default=True,
-    help="Relative move of lambda from --lam0 to the second evaluation; secant steps follow.",
-)
-@click.option("--xtol", type=float, default=1e-3, show_default=True, help="Tolerance on lambda_c.")
-@click.option(
-    "--coarse/--no-coarse",
-    default=True,
-    show_default=True,
-    help="Locate lambda_c first at N = 4 on 16x32 (when --degree/--grid are finer, --lam0 is not "
-    "given and the branch is the in-plane one) and start the search there.",
-)
+@task_option("lam0")
+@task_option("step")
+@task_option("xtol", help="Tolerance on lambda_c.")
+@task_option("coarse")
 @_ORIENTATION
 @_STABILITY_MODES
 @_MAX_ITERATIONS
@@ -216,25 +160,14 @@ def critical(
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
+        task = {"lam0": lam0, "step": step, "xtol": xtol, "coarse": coarse,
+                "orientation": orientation, "modes": modes, "max_iterations": max_iterations,
+                "jacobian": jacobian}  # fmt: skip
         with _executor(workers, scheduler) as pool:
-            c = critical_lambda(
-                physics,
-                disc,
-                lam0=lam0,
-                step=step,
-                xtol=xtol,
-                executor=pool,
-                progress=_echo_progress,
-                max_iterations=max_iterations,
-                jacobian=jacobian,
-                orientation=orientation,
-                modes=default_modes(orientation, modes),
-                coarse="auto" if coarse else None,
-            )
+            c = tasks.critical(physics, disc, task, pool, _echo_progress)
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
-    _print({**critical_summary(c, physics, disc), "jacobian": jacobian,
-            "orientation": orientation}, as_json)  # fmt: skip
+    _print(tasks.critical_json(c, physics, disc, task), as_json)
 
 
 def _print(out: dict, as_json: bool) -> None:
@@ -297,33 +230,11 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
 @click.option("--step", type=float, default=None,
               help="Step size of a START:STOP range, which may run down (8:7) [default: 1].")
 @discretisation_options()
-@click.option(
-    "--xtol",
-    type=float,
-    default=1e-3,
-    show_default=True,
-    help="Tolerance of the special points (absolute in lam, relative in chi and v).",
-)
-@click.option(
-    "--locate/--no-locate",
-    default=True,
-    show_default=True,
-    help="Locate stability changes between points.",
-)
-@click.option(
-    "--arclength/--no-arclength",
-    default=True,
-    show_default=True,
-    help="Where natural continuation stops, follow the branch by pseudo-arclength to locate "
-    "the fold.",
-)
-@click.option(
-    "--past-fold",
-    type=int,
-    default=0,
-    show_default=True,
-    help="Arclength steps beyond a fold, on the unstable side.",
-)
+@task_option("xtol",
+             help="Tolerance of the special points (absolute in lam, relative in chi and v).")
+@task_option("locate")
+@task_option("arclength")
+@task_option("past_fold")
 @_ORIENTATION
 @_STABILITY_MODES
 @_JACOBIAN
@@ -375,11 +286,11 @@ def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, o
         if states is not None:
             _check_states(states, [f"{name}_{x:.6g}.h5" for x in values], overwrite)
         with _executor(workers, scheduler) as pool:
-            modes = default_modes(orientation, modes)
-            b = branch(physics, disc, name, values, locate=locate, xtol=xtol, executor=pool,
-                       arclength=arclength, past_fold=past_fold, jacobian=jacobian,
-                       progress=_echo_progress, modes=modes,
-                       orientation=orientation)  # fmt: skip
+            settings = ContinuationSettings(locate=locate, xtol=xtol, arclength=arclength,
+                                            past_fold=past_fold)  # fmt: skip
+            b = branch(physics, disc, name, values, continuation=settings,
+                       analysis=StabilitySettings(orientation, modes, jacobian), executor=pool,
+                       progress=_echo_progress)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, OSError) as err:
         fail(str(err))
     fixed = {k: x for k, x in physics.to_dict().items() if k != name}
@@ -487,9 +398,9 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
-        curve = neutral_curve_codim2(physics, chis, disc, orientation=orientation, modes=modes,
-                                     jacobian=jacobian, form=form,
-                                     locate_type_change=type_change, cusps=cusps,
+        curve = neutral_curve_codim2(physics, chis, disc,
+                                     analysis=StabilitySettings(orientation, modes, jacobian),
+                                     form=form, locate_type_change=type_change, cusps=cusps,
                                      progress=_echo_progress)  # fmt: skip
     except CurveInterrupted as err:  # what was found is kept, then the interruption goes on
         if out is not None:
@@ -540,54 +451,15 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 
 @main.command("neutral")
 @physics_options(("v", "flow"))
-@click.option(
-    "--chi",
-    "chi_text",
-    default="0.1:10",
-    show_default=True,
-    help="Shear rates: a list (0.2,1,6) or a range LOW:HIGH, log-spaced with --points.",
-)
-@click.option("--points", type=int, default=None,
-              help="Points of a --chi range [default: 10].")  # fmt: skip
+@task_option("chi", "chi_text")
+@task_option("points")
 @discretisation_options()
-@click.option("--xtol", type=float, default=1e-3, show_default=True,
-              help="Absolute tolerance of each lambda_c.")  # fmt: skip
-@click.option(
-    "--type-tol",
-    type=float,
-    default=0.02,
-    show_default=True,
-    help="Relative width in chi to which a change of bifurcation type is located.",
-)
-@click.option("--no-type-change", is_flag=True, help="Do not locate the change of type.")
-@click.option(
-    "--cusps",
-    is_flag=True,
-    help="codim2: continue each fold curve past the change of type to its cusp, however many "
-    "refused steps that takes (by default it is given up there after 3 refused steps in a "
-    "row: at N = 8 the cusps were not reached in 4-7 min).",
-)
-@click.option(
-    "--continuation",
-    "continuation",
-    type=click.Choice(["codim2", "trace"]),
-    default="codim2",
-    show_default=True,
-    help="codim2: the fold and Hopf curves continued in (chi, lambda) on their augmented "
-    "systems, with the Bogdanov-Takens and cusp points and the change of type located, then "
-    "each chi solved on its curve (every point 'located' only where its system converged). "
-    "trace: the older one-parameter tracer (a branch in lambda at each chi); --xtol, "
-    "--type-tol, --states, --resume, --workers and --scheduler apply to it only.",
-)
-@click.option(
-    "--form",
-    type=click.Choice(["spec", "curvature"]),
-    default="spec",
-    show_default=True,
-    help="codim2: the Jacobian the curves are defined by: SPEC 9's operator (what `critical` "
-    "and --continuation trace compute) or the Newton matrix with the multipliers' curvature (its "
-    "fold is exactly the branch's turning point).",
-)
+@task_option("xtol", help="Absolute tolerance of each lambda_c.")
+@task_option("type_tol")
+@task_option("locate_type_change")
+@task_option("cusps")
+@task_option("continuation")
+@task_option("form")
 @_ORIENTATION
 @_STABILITY_MODES
 @_JACOBIAN
@@ -670,9 +542,10 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, cusps
 
         with _executor(workers, scheduler) as pool:
             curve = neutral_curve(physics, chis, disc, xtol=xtol, type_tol=type_tol,
-                                  locate_type_change=not no_type_change, progress=progress,
-                                  jacobian=jacobian, executor=pool, orientation=orientation,
-                                  modes=modes, known=known, checkpoint=keep)  # fmt: skip
+                                  locate_type_change=not no_type_change,
+                                  analysis=StabilitySettings(orientation, modes, jacobian),
+                                  executor=pool, progress=progress, known=known,
+                                  checkpoint=keep)  # fmt: skip
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         kept = f" (the points found are in {out}; --resume continues)" if out and found else ""
         fail(str(err) + kept)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
+import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
@@ -27,8 +28,18 @@ import numpy as np
 from vesicle.geometry.diagnostics import diagnose
 from vesicle.geometry.surface import Shape, ShapeError, spheroid_axes
 from vesicle.model.flows import LinearFlow
-from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
+from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.rheology import ParticleStress
+from vesicle.model.settings import (
+    NEWTON_SOLVER,
+    ORIENTATIONS,
+    UPDATES,
+    NewtonSettings,
+    StabilitySettings,
+    VesicleDeprecationWarning,
+    legacy_settings,
+    refuse_unknown,
+)
 from vesicle.model.theory import misbah_tt_inclination
 from vesicle.solve.solver import SolverError
 from vesicle.sphere.bases import FullBasis, RealBasis, SymmetricBasis
@@ -53,16 +64,6 @@ log = logging.getLogger(__name__)
 #: start closer by continuation is needed, which is cheaper than iterating on).
 DIVERGED = 1e3
 
-#: The steady TT branches: the long axis in the shear plane ("flow", the in-plane branch) or
-#: along the vorticity axis y ("vorticity", the out-of-plane branch of the paper's Fig. 22).
-ORIENTATIONS = ("flow", "vorticity")
-
-#: Jacobian update strategies of the Newton iteration (see :func:`steady_tank_treading`).
-UPDATES = ("broyden", "none")
-
-#: How Newton treats the area and volume constraints (see :func:`steady_tank_treading`).
-CONSTRAINTS = ("second-order", "first-order")
-
 #: Largest size, relative to the Newton step, of the second-order constraint correction that
 #: is applied (``project``).  In Newton's basin it is second order in the step (measured, N = 4,
 #: 16 x 32: 0.06 at the first chord step of a branch step lam 8 -> 8.3, chi = 10, falling to
@@ -71,8 +72,8 @@ CONSTRAINTS = ("second-order", "first-order")
 CORRECTION_RATIO = 0.25
 
 #: Tolerances of each velocity solve in Newton and stability: tighter than SPEC's 1e-6/1e-7 so
-#: that the finite-difference Jacobian is clean.
-NEWTON_TOLERANCES = SolverTolerances(1e-8, 1e-9)
+#: that the finite-difference Jacobian is clean (``NewtonSettings().solver``).
+NEWTON_TOLERANCES = NEWTON_SOLVER
 
 
 class NewtonError(RuntimeError):
@@ -201,23 +202,42 @@ def initial_guess(
     return SymmetricBasis(discretisation.degree).from_coefficients(shape.coefficients)
 
 
-def _objects(physics, discretisation, chi, degree, grid, v, lam) -> tuple[Physics, Discretisation]:
-    """The parameter objects of either call form (objects, or ``v, lam, chi, degree, grid``)."""
+def _objects(physics, discretisation, loose: tuple, legacy: dict) -> tuple[Physics, Discretisation]:
+    """The parameter objects of either call form: objects, or the former loose scalars
+    ``v, lam, chi, degree=, grid=`` (taken out of ``legacy``, with a deprecation warning)."""
+    scalars = {k: legacy.pop(k) for k in ("v", "lam", "chi", "degree", "grid") if k in legacy}
+    scalars.update(zip(("chi", "degree", "grid"), loose, strict=False))
+    if len(loose) > 3:
+        raise TypeError("steady_tank_treading takes at most 5 positional arguments, "
+                        f"got {2 + len(loose)}")  # fmt: skip
+    scalars = _given(**scalars)
     if isinstance(physics, Physics):
-        if any(x is not None for x in (chi, v, lam)):
+        if any(k in scalars for k in ("chi", "v", "lam")):
             raise ValueError("give the physics as a Physics object or as v, lam, chi, not both")
-        if discretisation is None:
-            discretisation = Discretisation(**_given(grid=grid, degree=degree))
-        elif not isinstance(discretisation, Discretisation):
+        if discretisation is not None and not isinstance(discretisation, Discretisation):
             raise TypeError("with a Physics, the second argument must be a Discretisation")
-        elif degree is not None or grid is not None:
+        if discretisation is not None and ("degree" in scalars or "grid" in scalars):
             raise ValueError("give degree and grid in the Discretisation, not as keywords")
-        return physics, discretisation
-    v = physics if physics is not None else v
-    lam = discretisation if discretisation is not None else lam
+        if scalars:
+            _warn_loose("steady_tank_treading", scalars)
+        return physics, discretisation or Discretisation(**scalars)
+    v = physics if physics is not None else scalars.pop("v", None)
+    lam = discretisation if discretisation is not None else scalars.pop("lam", None)
+    chi = scalars.pop("chi", None)
     if v is None or lam is None or chi is None:
         raise TypeError("steady_tank_treading needs Physics (and Discretisation), or v, lam, chi")
-    return Physics(v=v, lam=lam, chi=chi), Discretisation(**_given(grid=grid, degree=degree))
+    _warn_loose("steady_tank_treading", {"v": v, "lam": lam, "chi": chi, **scalars})
+    return Physics(v=v, lam=lam, chi=chi), Discretisation(**scalars)
+
+
+def _warn_loose(function: str, scalars: dict) -> None:
+    physics = [k for k in ("v", "lam", "chi") if k in scalars]
+    disc = [k for k in ("degree", "grid") if k in scalars]
+    what = " and ".join(x for x in (
+        f"Physics({', '.join(physics)})" if physics else "",
+        f"Discretisation({', '.join(disc)})" if disc else "") if x)  # fmt: skip
+    warnings.warn(f"{function} with loose {', '.join(scalars)} is deprecated: pass {what}",
+                  VesicleDeprecationWarning, stacklevel=4)  # fmt: skip
 
 
 def _given(**values) -> dict:
@@ -237,27 +257,16 @@ def _check_problem(physics: Physics) -> None:
 
 
 def steady_tank_treading(
-    physics: Physics | float | None = None,
+    physics: Physics | float,
     discretisation: Discretisation | float | None = None,
-    chi: float | None = None,
-    degree: int | None = None,
-    grid: int | None = None,
-    *,
-    v: float | None = None,
-    lam: float | None = None,
+    *loose: float,
     initial: np.ndarray | Shape | SteadyResult | None = None,
-    tolerance: float = 1e-8,
-    max_iterations: int | None = None,
-    solver_tolerances: SolverTolerances | None = None,
-    executor: Executor | None = None,
-    chord_contraction: float = 0.7,
-    progress=None,
-    updates: str = "broyden",
     guess: np.ndarray | None = None,
-    jacobian: str = "linearised",
-    orientation: str | None = None,
-    constraints: str = "second-order",
-    preconditioned: bool = True,
+    newton: NewtonSettings | None = None,
+    analysis: StabilitySettings | None = None,
+    executor: Executor | None = None,
+    progress=None,
+    **legacy,
 ) -> SteadyResult:
     """Newton–Raphson for the steady tank-treading shape (SPEC §8).
 
@@ -265,99 +274,82 @@ def steady_tank_treading(
     ----------
     physics, discretisation : Physics, Discretisation
         The parameter point and its resolution (default ``Discretisation()``: N = 8 on 32 x 64).
-        The keyword form ``steady_tank_treading(v, lam, chi, degree=8, grid=32)`` gives the same
-        result bit for bit.
+        The former form ``steady_tank_treading(v, lam, chi, degree=8, grid=32)`` gives the same
+        result bit for bit, with a :class:`VesicleDeprecationWarning`.
     initial : array of symmetric coefficients, Shape, SteadyResult, or None
         Start; default :func:`initial_guess`.  A :class:`SteadyResult` (a neighbouring solution,
         for continuation in lam, chi or v) also gives the multipliers and, at the same degree
         and grid, its Jacobian: Newton then starts with chord iterations on that Jacobian (one
         solve each instead of one per column) and forms a fresh one as soon as an iteration
-        fails to reduce the residual by ``chord_contraction``.
-    tolerance : float
-        Converged when the residual's max-norm is below ``tolerance`` (relative to ``chi`` for
-        the dynamic part).
-    max_iterations : int, optional
-        Newton iterations before giving up with :class:`NewtonError`; default 30 with Broyden
-        updates (their steps are one solve each and converge superlinearly), 12 without.
-    solver_tolerances : SolverTolerances
-        Of each velocity solve; default :data:`NEWTON_TOLERANCES` (1e-8 Schur, 1e-9 inner).
-    executor : concurrent.futures.Executor, optional
-        Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
-    chord_contraction : float
-        Largest residual ratio accepted from a step on a reused Jacobian (see ``initial``).
+        fails to reduce the residual by ``newton.chord_contraction``.
     guess : array, optional
         Start coefficients (a predictor) that replace those of ``initial``, whose multipliers
         and Jacobian are still used (continuation along a branch).
-    updates : {"broyden", "none"}
-        ``"broyden"`` (default): once a Newton step on a Jacobian formed by differences has
-        contracted the residual by ``chord_contraction``, that Jacobian is reused for the
-        following steps with good-Broyden rank-one updates (one solve per step) until a step
-        contracts it by less; then a fresh one is formed.  Far from the solution Newton forms
-        fresh Jacobians as the reference does.
-        ``"none"``: the reference, a fresh Jacobian at every Newton step once the chord steps
-        on a neighbour's Jacobian stop paying (the method before the Broyden updates).
-    jacobian : {"linearised", "differences"}
-        How the Jacobians of Newton and of the stability analysis are formed (see
-        :meth:`vesicle.steady.problem.SteadyProblem.jacobian`): ``"linearised"`` (default)
-        differentiates
-        the solve (no solves per column, exact to about 1e-9); ``"differences"`` is the
-        reference (forward differences in Newton, central ones at the solution; the
-        ``executor`` runs their columns).
+    newton : NewtonSettings
+        Tolerance (the residual's max-norm, relative to ``chi`` for the dynamic part), iteration
+        limit (:class:`NewtonError` beyond it), Jacobian updates, constraint order,
+        preconditioning and the velocity solves' tolerances; default ``NewtonSettings()``.
+
+        - ``updates="broyden"`` (default): once a Newton step on a Jacobian formed by
+          differences has contracted the residual by ``chord_contraction``, that Jacobian is
+          reused for the following steps with good-Broyden rank-one updates (one solve per step)
+          until a step contracts it by less; ``"none"``: the reference, a fresh Jacobian at
+          every step once the chord steps on a neighbour's Jacobian stop paying.
+        - ``constraints="second-order"`` (default): the Newton matrix includes the multipliers'
+          curvature term ``-mu . d^2(A, V)/da^2``
+          (:meth:`vesicle.steady.problem.SteadyProblem.constraint_hessians`), so Newton
+          converges quadratically where the multipliers are not small (v = 0.85: linear with
+          ratio 0.49 without it), and every iterate is moved back onto the area and volume
+          constraints by the bordered step of the matrix it was found with
+          (:meth:`vesicle.steady.problem.SteadyProblem.project`; no solve).
+          ``"first-order"``: the method before.
+        - ``preconditioned=True`` (default, linearised Jacobians): solve the iterates by GMRES
+          preconditioned with the last Jacobian's factorised system; ``False``: the nested GMRES.
+    analysis : StabilitySettings, optional
+        ``orientation``: the branch sought, in-plane (``"flow"``: the start is the spheroid
+        tilted in the shear plane) or along the vorticity axis (the start is the spheroid along
+        y); a converged state on the other branch is refused with :class:`NewtonError`.
+        ``jacobian``: ``"linearised"`` (the solve differentiated, no solves per column, exact to
+        about 1e-9) or ``"differences"`` (the reference; the ``executor`` runs its columns).
+        Default: the orientation of ``initial`` if it is a :class:`SteadyResult` (continuation
+        stays on its branch), else ``"flow"``, and linearised Jacobians.
+    executor : concurrent.futures.Executor, optional
+        Runs the Jacobian columns (e.g. a ``ProcessPoolExecutor`` or a Dask client's executor).
     progress : callable, optional
         Called after every Newton iteration with ``{"lam", "chi", "iteration", "residual",
         "seconds"}``.
-    constraints : {"second-order", "first-order"}
-        ``"second-order"`` (default): the Newton matrix includes the multipliers' curvature
-        term ``-mu . d^2(A, V)/da^2``
-        (:meth:`vesicle.steady.problem.SteadyProblem.constraint_hessians`,
-        geometry only), so Newton converges quadratically where the multipliers are not small
-        (v = 0.85: linear with ratio 0.49 without it), and every iterate is moved back onto the
-        area and volume constraints before it is solved, by the bordered step of the matrix it
-        was found with (the second-order correction,
-        :meth:`vesicle.steady.problem.SteadyProblem.project`; no solve), so the residual's
-        contraction that decides whether a reused Jacobian still pays is the dynamic part's.
-        ``"first-order"``: the method before (``M`` alone; the constraints held to first order
-        by the bordered step).
-    preconditioned : bool
-        With ``jacobian="linearised"``, solve the iterates after a Jacobian was formed by GMRES
-        preconditioned with that Jacobian's factorised system (a few iterations instead of
-        about 150 double-layer products; default); ``False``: the nested GMRES (the method
-        before).
-    orientation : {"flow", "vorticity"}, optional
-        The branch sought: the in-plane one (the start is the spheroid tilted in the shear
-        plane) or the one with the long axis along the vorticity axis (the start is the
-        spheroid along y).  Default: that of ``initial`` if it is a :class:`SteadyResult`
-        (continuation stays on its branch), else "flow".  A converged state on the other branch
-        (Newton slid onto it) is refused with :class:`NewtonError`.
+
+    The former keywords ``tolerance``, ``max_iterations``, ``solver_tolerances``, ``updates``,
+    ``chord_contraction``, ``constraints``, ``preconditioned`` (now :class:`NewtonSettings`)
+    and ``jacobian``, ``orientation`` (now :class:`StabilitySettings`) work for one release,
+    with a :class:`VesicleDeprecationWarning`.
     """
-    physics, discretisation = _objects(physics, discretisation, chi, degree, grid, v, lam)
-    if orientation is None:
-        orientation = initial.orientation if isinstance(initial, SteadyResult) else "flow"
-    if orientation not in ORIENTATIONS:
-        raise ValueError(f"orientation must be one of {ORIENTATIONS}, got {orientation!r}")
+    physics, discretisation = _objects(physics, discretisation, loose, legacy)
+    newton = legacy_settings("steady_tank_treading", NewtonSettings, newton, legacy,
+                             {"solver_tolerances": "solver"}) or NewtonSettings()  # fmt: skip
+    analysis = legacy_settings("steady_tank_treading", StabilitySettings, analysis, legacy)
+    refuse_unknown("steady_tank_treading", legacy)
+    if analysis is None:
+        analysis = StabilitySettings(
+            orientation=initial.orientation if isinstance(initial, SteadyResult) else "flow")
+    orientation = analysis.orientation
     initial_is_default = initial is None
     if initial is None and orientation != "flow":
         initial = initial_guess(physics, discretisation, orientation=orientation)
     _check_problem(physics)
-    if max_iterations is None:
-        max_iterations = 30 if updates == "broyden" else 12
-    if int(max_iterations) < 1:
-        raise ValueError(f"max_iterations must be at least 1, got {max_iterations}")
-    if constraints not in CONSTRAINTS:
-        raise ValueError(f"constraints must be one of {CONSTRAINTS}, got {constraints!r}")
-    problem = SteadyProblem(
-        physics, discretisation, solver_tolerances or NEWTON_TOLERANCES, jacobian_method=jacobian,
-        preconditioned=preconditioned,
-    )  # fmt: skip
-    newton = _Newton(problem, executor, chord_contraction, progress, updates,
-                     constraints == "second-order")  # fmt: skip
+    problem = SteadyProblem(physics, discretisation, newton.solver,
+                            jacobian_method=analysis.jacobian,
+                            preconditioned=newton.preconditioned)  # fmt: skip
+    settings = newton
+    newton = _Newton(problem, executor, settings.chord_contraction, progress, settings.updates,
+                     settings.constraints == "second-order")  # fmt: skip
     newton.start(initial)
     if guess is not None:
         guess = np.asarray(guess, float)
         if guess.shape != newton.a.shape:
             raise ValueError(f"guess must have {newton.a.size} coefficients, got {guess.shape}")
         newton.a = guess.copy()
-    converged = newton.iterate(tolerance, int(max_iterations))
+    converged = newton.iterate(settings.tolerance, settings.iterations)
     result = newton.result(converged)
     if not initial_is_default:
         result = dataclasses.replace(result, start="initial")

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from vesicle.model.settings import default_modes  # re-exported: decided there
 from vesicle.sphere.bases import FullBasis
 from vesicle.steady.newton import SteadyResult
 
@@ -39,14 +40,6 @@ __all__ = ["FullBasis", "StabilityResult", "default_modes", "stability"]
 
 log = logging.getLogger(__name__)
 
-
-def default_modes(orientation: str = "flow", modes: str | None = None) -> str:
-    """The perturbations analysed when none are asked for: the x-z symmetric ones on the in-plane
-    (``"flow"``) branch, the full basis on the vorticity-aligned one, whose instability breaks
-    that symmetry (SPEC §13).  The one place this default is decided."""
-    if modes is not None:
-        return modes
-    return "general" if orientation == "vorticity" else "symmetric"
 
 #: |curvature_shift| above which :func:`stability` warns that the resolution is too low for the
 #: multipliers to be negligible (measured: Table 1's state, v = 0.95, at N = 4 on 32x64 5.8e-3,

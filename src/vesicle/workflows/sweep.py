@@ -1,6 +1,6 @@
 """Parameter sweeps on Dask with a crash-proof results store (issue 13, part 3).
 
-A sweep is a task (:data:`TASKS`) evaluated at every point of a parameter grid.  Its config is a
+A sweep is a task (:data:`vesicle.workflows.tasks.TASKS`) evaluated at every point of a parameter grid.  Its config is a
 TOML file::
 
     [sweep]
@@ -18,18 +18,12 @@ TOML file::
     grid = 32
     [solver]               # velocity-solve tolerances of "run" points
     [run]                  # the run settings of "run" points (t_end, save_every, ...)
-    [task]                 # task options: modes ("symmetric" | "general") for stability,
-                           #   jacobian, max_iterations, xtol, coarse (true: locate at
-                           #   N = 4 first, the default) for critical; for branch:
-                           #   parameter ("lam" | "chi" | "v", not in [grid]) and values
-                           #   ("1:9", "1:9:0.5" or a list), past_fold, xtol; for neutral:
-                           #   chi ("0.1:10" with points, or a list), continuation
-                           #   ("codim2", the default, as `vesicle neutral`, with form and
-                           #   cusps; or
-                           #   "trace": the tracer, with xtol, type_tol and checkpoints),
-                           #   locate_type_change; orientation ("flow" | "vorticity": the
-                           #   TT branch) for tt, stability (general modes by default on the
-                           #   vorticity branch), critical and neutral
+    [task]                 # task options: the commands' options, by the same names
+                           #   (vesicle.workflows.tasks.OPTIONS; which task takes which:
+                           #   TASKS), e.g. modes, orientation, jacobian, xtol; for branch:
+                           #   parameter ("lam" | "chi" | "v", not in [grid]) and values;
+                           #   for neutral: chi ("0.1:10" with points, or a list) and
+                           #   continuation ("codim2", the default, or "trace")
 
 A ``branch`` point is a whole branch at the fixed values of its grid point (e.g. one per v and
 chi, continued in lam), a ``neutral`` point a whole neutral curve at its v: sweeps of these run
@@ -67,26 +61,13 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import h5py
-import numpy as np
 
-from vesicle.bifurcation.branch import PARAMETERS, branch, reach
-from vesicle.bifurcation.checkpoint import Checkpoint
-from vesicle.bifurcation.critical import critical_lambda, critical_summary
-from vesicle.bifurcation.neutral import neutral_curve
-from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
-from vesicle.bifurcation.steady_codim2 import FORMS
 from vesicle.dynamics.integrators import RunParameters
-from vesicle.dynamics.simulation import load_parameters, simulate
-from vesicle.geometry.diagnostics import diagnose, summarize
-from vesicle.io.files import open_file, plain, read_run, stamp, stamped, write_atomically
+from vesicle.io.files import open_file, plain, stamp, write_atomically
 from vesicle.model.parameters import Discretisation, Physics, stable_key
 from vesicle.parallel import close_cluster, local_cluster
-from vesicle.ranges import parse_range
-from vesicle.solve.ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
-from vesicle.steady.files import steady_summary
-from vesicle.steady.newton import ORIENTATIONS
-from vesicle.steady.stability import default_modes, stability
 from vesicle.workflows.config import SECTIONS, ConfigError, solver_from
+from vesicle.workflows.tasks import FOLDERS, GRID_KEYS, OPTIONS, TASKS, check_options
 
 __all__ = [
     "TASKS",
@@ -106,205 +87,8 @@ log = logging.getLogger(__name__)
 FORMAT = "vesicle-sweep"
 FORMAT_VERSION = 1
 
-#: Parameters a grid may sweep.
-GRID_KEYS = ("v", "lam", "chi")
 
 
-# ------------------------------------------------------------------------ tasks
-def _tt(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    return steady_summary(reach(physics, disc, **_newton(options)))
-
-
-def _newton(options: dict) -> dict:
-    """The Newton options of a steady-state task (the branch: ``orientation``)."""
-    return {k: options[k] for k in ("jacobian", "max_iterations", "orientation") if k in options}
-
-
-def _default_modes(options: dict) -> str:
-    """The vorticity-aligned branch loses stability to modes breaking the x-z symmetry."""
-    return default_modes(options.get("orientation", "flow"))
-
-
-def _stability(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    r = reach(physics, disc, **_newton(options))
-    return steady_summary(r, stability(r, modes=options.get("modes", _default_modes(options))))
-
-
-def _critical(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    keys = ("jacobian", "max_iterations", "xtol", "lam0", "orientation")
-    coarse = "auto" if options.get("coarse", True) else None
-    c = critical_lambda(physics, disc, modes=options.get("modes", _default_modes(options)),
-                        coarse=coarse, **{k: options[k] for k in keys if k in options})  # fmt: skip
-    return critical_summary(c, physics, disc)
-
-
-def _branch_values(options: dict) -> list[float]:
-    return parse_range(options["values"], "step", name="[task] values")
-
-
-def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    name = options["parameter"]
-    values = _branch_values(options)
-    start = physics.replace(**{name: values[0]})
-    keys = ("jacobian", "xtol", "past_fold")
-    b = branch(start, disc, name, values, **{k: options[k] for k in keys if k in options})
-    fixed = {k: x for k, x in physics.to_dict().items() if k != name}
-    result = b.to_dict()
-    if options.get("ellipsoid"):  # S^V of each point's equivalent ellipsoid (SPEC §11)
-        for p in result["points"]:
-            shape = equivalent_ellipsoid(p["axes"], p["axis_directions"], disc.grid)
-            p["ellipsoid"] = flow_stress(shape, [p["lam"]])[0].summary()
-    return stamped({"physics": fixed, "discretisation": disc.to_dict(),
-            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result})  # fmt: skip
-
-
-#: settings that name folders of the points' files (not part of what a store's points share)
-FOLDERS = ("runs_dir", "curves_dir")
-
-def _neutral_chi(options: dict) -> list[float]:
-    return parse_range(options.get("chi", "0.1:10"), "log", points=options.get("points"),
-                       name="[task] chi", positive=True)
-
-
-def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    if options.get("continuation", "codim2") == "codim2":
-        keys = ("jacobian", "locate_type_change", "orientation", "modes", "form", "cusps")
-        c = neutral_curve_codim2(physics, _neutral_chi(options), disc,
-                                 **{k: options[k] for k in keys if k in options})  # fmt: skip
-        return c.to_dict()  # written when complete (no checkpoint: see the module notes)
-    keys = ("jacobian", "xtol", "type_tol", "locate_type_change", "orientation", "modes")
-    kwargs = {k: options[k] for k in keys if k in options}
-    known, keep = [], None
-    if settings.get("curves_dir"):  # the curve's points and states as they are found: a curve
-        # cut short by a crash, Ctrl-C or a lost worker goes on from them when tried again
-        keep = Checkpoint(Path(settings["curves_dir"]) / f"{physics.key}.json", physics, disc,
-                          orientation=kwargs.get("orientation", "flow"),
-                          modes=kwargs.get("modes"), xtol=kwargs.get("xtol", 1e-3),
-                          jacobian=kwargs.get("jacobian", "linearised"))  # fmt: skip
-        keep.out.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            known = keep.resume()
-        except ValueError as err:
-            log.warning("neutral curve %s: its checkpoint is not usable (%s): traced again",
-                        physics.key, err)  # fmt: skip
-        if known:
-            log.info("neutral curve %s: %d points from its checkpoint", physics.key, len(known))
-    c = neutral_curve(physics, _neutral_chi(options), disc, known=known, checkpoint=keep,
-                      **kwargs)  # fmt: skip
-    return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
-
-
-def _values(spec, points: int, name: str) -> list[float]:
-    """``ellipsoid_map``'s ``psi``/``lams``: a list, or ``LOW:HIGH`` with ``points`` values."""
-    if isinstance(spec, list):
-        return parse_range(spec, "linear", name=name)
-    return parse_range(spec, "linear", points=points, name=name)
-
-
-def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    """S^V of the TT state's equivalent ellipsoid turned over ``psi`` for every ``lams``."""
-    state = reach(physics, disc, **{k: options[k] for k in ("jacobian",) if k in options})
-    d = diagnose(state.shape)
-    psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)), "[task] psi")
-    lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)), "[task] lams")
-    m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid)
-    return stamped({"physics": physics.to_dict(),
-            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
-            "chi": physics.chi, "state": {"psi": state.psi, "axes": d.lengths.tolist(),
-                                          "axis_directions": d.axes.tolist()},
-            "map_psi": m["psi"].tolist(), "map_lam": m["lam"].tolist(),
-            **{k: np.asarray(m[k]).tolist() for k in ("S_xz", "N1", "N2")}})  # fmt: skip
-
-
-def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    params = RunParameters(physics, disc, settings.get("solver"), **settings.get("run", {}))
-    path, resume = None, None
-    if settings.get("runs_dir"):  # each point's run file, checkpointed: a point cut short by a
-        # crash, Ctrl-C or a lost worker resumes from its last checkpoint when tried again
-        path = Path(settings["runs_dir"]) / f"{physics.key}.h5"
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if path.exists():
-            try:
-                previous = read_run(path)
-            except (OSError, ValueError, KeyError) as err:
-                log.warning("run file %s unreadable (%s): the point starts again", path, err)
-                path.unlink()
-            else:
-                # the stop criteria only decide when to stop: a run to an earlier stop is the
-                # beginning of the same trajectory, and continues exactly from its checkpoint
-                stops = {k: getattr(params, k) for k in ("t_end", "periods", "steady_tol")}
-                same = load_parameters(previous).replace(**stops) == params
-                if previous.checkpoint is not None and same:
-                    resume = previous
-                    log.info("point %s resumes its run from t = %.4g", physics.key,
-                             float(previous.checkpoint["t"]))  # fmt: skip
-                else:
-                    path.unlink()
-    run = simulate(params, out=path, resume=resume)
-    return stamped({"physics": physics.to_dict(),
-            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
-            "chi": physics.chi, **summarize(run)})  # fmt: skip
-
-
-@dataclass(frozen=True)
-class Task:
-    """A sweep task: the function of one point and what it sweeps and accepts."""
-
-    function: Callable[[Physics, Discretisation, dict, dict], dict]
-    swept: tuple[str, ...]  # the [grid] keys it takes
-    options: tuple[str, ...]  # the [task] keys it takes
-    #: why a result falls short of what the point asked for (None: it reached all of it); such
-    #: a point is recorded as failed, with what it found, and a rerun tries it again
-    incomplete: Callable[[dict], str | None] = lambda result: None
-
-
-def _branch_incomplete(result: dict) -> str | None:
-    """A branch that stopped before its last value (a fold, a failed step) is not done."""
-    if not result.get("stopped"):
-        return None
-    return f"the branch stopped before its last value: {result['stopped']}"
-
-
-def _neutral_incomplete(result: dict) -> str | None:
-    """A neutral curve with points it could not trace is not done."""
-    if not result.get("failed"):
-        return None
-    where = [f"before chi = {f['chi']:.4g}: {f['error']}" for f in result["failed"]]
-    return "the curve stopped: " + "; ".join(where)
-
-
-#: The tasks, by name; each point's result has the keys of the command's own --json output.
-TASKS = {
-    "tt": Task(_tt, GRID_KEYS, ("jacobian", "max_iterations", "orientation")),
-    "stability": Task(
-        _stability, GRID_KEYS, ("jacobian", "max_iterations", "modes", "orientation")
-    ),
-    "critical": Task(
-        _critical, ("v", "chi"),
-        ("jacobian", "max_iterations", "xtol", "lam0", "orientation", "coarse"),
-    ),
-    "branch": Task(
-        _branch, GRID_KEYS, ("parameter", "values", "jacobian", "xtol", "past_fold", "ellipsoid"),
-        _branch_incomplete,
-    ),
-    "neutral": Task(
-        _neutral,
-        ("v",),
-        ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change", "orientation",
-         "modes", "continuation", "form", "cusps"),
-        _neutral_incomplete,
-    ),
-    "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
-    "run": Task(_run, GRID_KEYS, ()),
-}
-
-_TASK_TYPES = {"jacobian": (str,), "max_iterations": (int,), "modes": (str,),
-               "xtol": (int, float), "lam0": (int, float), "parameter": (str,),
-               "values": (str, list), "past_fold": (int,), "chi": (str, list),
-               "points": (int,), "type_tol": (int, float),
-               "locate_type_change": (bool,), "ellipsoid": (bool,), "psi": (str, list),
-               "lams": (str, list), "orientation": (str,), "coarse": (bool,),
-               "continuation": (str,), "form": (str,), "cusps": (bool,)}  # fmt: skip
 _SWEEP_KEYS = {"task": (str,), "out": (str,), "points": (str,)}
 
 
@@ -406,7 +190,7 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
     if task != "run" and ("run" in data or "solver" in data):
         _fail(path, f'[run] and [solver] are for task = "run", not {task!r}')
     options = data.get("task", {})
-    _check_keys(path, "task", options, {k: _TASK_TYPES[k] for k in spec.options})
+    _check_keys(path, "task", options, {k: OPTIONS[k].types for k in spec.options})
     fixed = data.get("physics", {})
     both = sorted(set(fixed) & set(grid))
     if both:
@@ -436,14 +220,7 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
             settings["runs_dir"] = str(out_path.parent / f"{out_path.stem}_runs")
         if task == "neutral":  # each curve's checkpoint (points and states), beside the store
             settings["curves_dir"] = str(out_path.parent / f"{out_path.stem}_curves")
-        if "orientation" in options and options["orientation"] not in ORIENTATIONS:
-            raise ValueError(f"[task] orientation must be one of {', '.join(ORIENTATIONS)}, "
-                             f"got {options['orientation']!r}")  # fmt: skip
-        if "modes" in options and options["modes"] not in ("symmetric", "general"):
-            raise ValueError(f"[task] modes must be 'symmetric' or 'general', got "
-                             f"{options['modes']!r}")  # fmt: skip
-        _check_task_numbers(options)
-        _check_task(task, options, grid, points)
+        check_options(task, options, grid, points)
     except (ValueError, TypeError) as err:
         raise ConfigError(f"{path}: {err}") from None
     if len({p.key for p in points}) != len(points):
@@ -452,67 +229,6 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
     if not out.is_absolute():
         out = path.parent / out
     return SweepConfig(path, task, out, points, disc, options, settings, text)
-
-
-def _check_task_numbers(options: dict) -> None:
-    """The [task] numbers, as the commands' options take them (raises ValueError naming the
-    key): tolerances and ``lam0`` positive and finite, ``max_iterations`` at least 1,
-    ``past_fold`` not negative, ``points`` (of a range) at least 2."""
-    for key in ("xtol", "type_tol", "lam0"):
-        if key in options and not (np.isfinite(options[key]) and options[key] > 0):
-            raise ValueError(f"[task] {key} must be a positive number, got {options[key]!r}")
-    for key, least in (("max_iterations", 1), ("past_fold", 0), ("points", 2)):
-        if key in options and options[key] < least:
-            raise ValueError(f"[task] {key} must be at least {least}, got {options[key]!r}")
-
-
-def _check_task(task: str, options: dict, grid: dict, points) -> None:
-    """The branch and neutral tasks' own options (raises ValueError naming the key)."""
-    if task == "branch":
-        name = options.get("parameter")
-        if name not in PARAMETERS:
-            raise ValueError(f"[task] parameter must be one of {', '.join(PARAMETERS)} for "
-                             f"task = 'branch', got {name!r}")  # fmt: skip
-        if name in grid:
-            raise ValueError(f"[task] parameter {name!r} is continued along each branch: it "
-                             f"cannot also be in [grid]")  # fmt: skip
-        if "values" not in options:
-            raise ValueError("[task] values (e.g. \"1:9\" or [1, 2, 4]) are needed for "
-                             "task = 'branch'")  # fmt: skip
-        values = _branch_values(options)
-        for p in points:
-            for x in values:
-                p.replace(**{name: x})
-    if task == "ellipsoid_map":
-        for key in ("psi", "lams"):
-            if key in options:
-                values = _values(options[key], options.get("points", 15), f"[task] {key}")
-                if key == "lams" and any(not (x > 0) for x in values):
-                    raise ValueError(f"[task] lams must be positive, got {options[key]!r}")
-    if task == "neutral":
-        if "points" in options and not (isinstance(options.get("chi"), str) and
-                                        options["points"] >= 2):  # fmt: skip
-            raise ValueError("[task] points goes with a chi range \"LOW:HIGH\" and must be "
-                             "at least 2")  # fmt: skip
-        _neutral_chi(options)
-        how = options.get("continuation", "codim2")
-        if how not in ("codim2", "trace"):
-            raise ValueError(f"[task] continuation must be 'codim2' or 'trace', got {how!r}")
-        if how == "codim2":
-            for key in ("xtol", "type_tol"):
-                if key in options:
-                    raise ValueError(f"[task] {key} applies to continuation = 'trace' only "
-                                     "(the two-parameter continuation solves each point to "
-                                     "its own tolerance)")  # fmt: skip
-            if options.get("form", "spec") not in FORMS:
-                raise ValueError(f"[task] form must be one of {FORMS}, got {options['form']!r}")
-        else:
-            for key in ("form", "cusps"):
-                if key in options:
-                    raise ValueError(f"[task] {key} applies to continuation = 'codim2' only")
-    if "jacobian" in options and options["jacobian"] not in ("linearised", "differences"):
-        raise ValueError(f"[task] jacobian must be 'linearised' or 'differences', got "
-                         f"{options['jacobian']!r}")  # fmt: skip
 
 
 # ------------------------------------------------------------------------ store

@@ -1,0 +1,443 @@
+"""One registry of tasks: what each computation takes and gives, for the commands and the sweeps.
+
+A task is a function of one parameter point (``Physics``, ``Discretisation``) and its options,
+returning the JSON object that ``vesicle <command> --json`` prints and that a sweep's store
+keeps for that point.  :data:`TASKS` lists them (``tt``, ``stability``, ``critical``,
+``branch``, ``neutral``, ``ellipsoid_map``, ``run``) with the grid keys each sweeps and the
+options it takes; :data:`OPTIONS` holds each option once: its ``[task]`` key (also its JSON key),
+TOML types, default, allowed values, bounds, command-line spelling and help.  From them:
+
+- a sweep's ``[task]`` table is checked (:func:`check_options`: unknown keys with the closest
+  known one, types, choices, bounds, before any work);
+- the commands' options are built (:func:`vesicle.cli.options.task_option`: same default,
+  choices and help);
+- the commands call the same task functions where they compute what a sweep point computes
+  (``vesicle tt``, ``critical``), so the JSON keys are the same.
+
+The settings objects (:mod:`vesicle.model.settings`) are made here from the options, in one
+place per kind: :func:`analysis` (orientation, modes, Jacobians), :func:`solve` (Newton).
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vesicle.bifurcation.branch import PARAMETERS, branch, reach
+from vesicle.bifurcation.checkpoint import Checkpoint
+from vesicle.bifurcation.critical import critical_lambda, critical_summary
+from vesicle.bifurcation.neutral import neutral_curve
+from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
+from vesicle.bifurcation.steady_codim2 import FORMS
+from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.simulation import load_parameters, simulate
+from vesicle.geometry.diagnostics import diagnose, summarize
+from vesicle.io.files import read_run, stamped
+from vesicle.model.parameters import Discretisation, Physics
+from vesicle.model.settings import (
+    JACOBIANS,
+    MODES,
+    ORIENTATIONS,
+    UPDATES,
+    ContinuationSettings,
+    CriticalSearch,
+    NewtonSettings,
+    StabilitySettings,
+)
+from vesicle.ranges import parse_range
+from vesicle.solve.ellipsoid import equivalent_ellipsoid, flow_stress, stress_map
+from vesicle.steady.files import steady_summary
+from vesicle.steady.stability import stability
+
+__all__ = ["FOLDERS", "GRID_KEYS", "OPTIONS", "TASKS", "Option", "Task", "analysis",
+           "check_options", "solve"]  # fmt: skip
+
+log = logging.getLogger(__name__)
+
+#: Parameters a grid may sweep.
+GRID_KEYS = ("v", "lam", "chi")
+
+
+# ------------------------------------------------------------------------ options
+@dataclass(frozen=True)
+class Option:
+    """One task option, declared once.
+
+    ``key``: the ``[task]`` key and the keyword (also its JSON key); ``types``: the TOML types
+    accepted; ``default``: as on the command line (``None``: decided by the task); ``choices``;
+    ``least``: numbers at least this; ``positive``: numbers above 0; ``flag``: the command-line
+    spelling where it is not ``--key-with-dashes`` (``"--coarse/--no-coarse"``; ``invert``: a
+    flag that sets the key to false, ``--no-type-change``); ``cli``: offered by the commands.
+    """
+
+    key: str
+    types: tuple[type, ...]
+    default: Any
+    help: str
+    choices: tuple[str, ...] | None = None
+    least: int | None = None
+    positive: bool = False
+    flag: str | None = None
+    invert: bool = False
+    cli: bool = True
+
+    def check(self, value: Any) -> None:
+        """Raise ValueError naming ``[task] key`` if ``value`` is not one this option takes."""
+        if not isinstance(value, self.types) or (isinstance(value, bool) and
+                                                 bool not in self.types):  # fmt: skip
+            names = " or ".join(sorted({t.__name__ for t in self.types}))
+            raise ValueError(f"[task] {self.key} must be {names}, got {value!r}")
+        if self.choices is not None and value not in self.choices:
+            allowed = (" or ".join(map(repr, self.choices)) if len(self.choices) == 2 else
+                       "one of " + ", ".join(map(repr, self.choices)))  # fmt: skip
+            raise ValueError(f"[task] {self.key} must be {allowed}, got {value!r}")
+        if self.positive and not (np.isfinite(value) and value > 0):
+            raise ValueError(f"[task] {self.key} must be a positive number, got {value!r}")
+        if self.least is not None and value < self.least:
+            raise ValueError(f"[task] {self.key} must be at least {self.least}, got {value!r}")
+
+
+_NUMBER = (int, float)
+
+#: Every task option, once.
+OPTIONS: dict[str, Option] = {o.key: o for o in (
+    Option("orientation", (str,), "flow", "The TT branch: long axis in the shear plane (flow) "
+           "or along the vorticity axis y (vorticity; start: the spheroid along y). A state on "
+           "the other branch is refused.", choices=ORIENTATIONS),
+    Option("modes", (str,), None, "Perturbations of the stability analysis [default: "
+           "symmetric; general with --orientation vorticity, whose instability breaks the x-z "
+           "symmetry].", choices=MODES),
+    Option("jacobian", (str,), "linearised", "How Newton and stability form Jacobians: the "
+           "solve differentiated (no solves per column), or finite differences of perturbed "
+           "solves (the reference; --workers/--scheduler run their columns).",
+           choices=JACOBIANS),
+    Option("max_iterations", (int,), None, "Newton iterations per steady state before giving "
+           "up [default: 30; 12 with --updates none].", least=1),
+    Option("updates", (str,), "broyden", "Newton's Jacobian: reused with Broyden updates, or "
+           "fresh at every step (reference).", choices=UPDATES),
+    Option("lam0", _NUMBER, None, "First lambda to try.", positive=True),
+    Option("step", _NUMBER, 0.05, "Relative move of lambda from --lam0 to the second "
+           "evaluation; secant steps follow.", positive=True),
+    Option("xtol", _NUMBER, 1e-3, "Tolerance on lambda_c (a branch's special points: absolute "
+           "in lam, relative in chi and v).", positive=True),
+    Option("coarse", (bool,), True, "Locate lambda_c first at N = 4 on 16x32 (when "
+           "--degree/--grid are finer, --lam0 is not given and the branch is the in-plane one) "
+           "and start the search there.", flag="--coarse/--no-coarse"),
+    Option("locate", (bool,), True, "Locate stability changes between points.",
+           flag="--locate/--no-locate"),
+    Option("arclength", (bool,), True, "Where natural continuation stops, follow the branch "
+           "by pseudo-arclength to locate the fold.", flag="--arclength/--no-arclength"),
+    Option("past_fold", (int,), 0, "Arclength steps beyond a fold, on the unstable side.",
+           least=0),
+    Option("parameter", (str,), None, "The parameter continued along each branch.",
+           choices=PARAMETERS, cli=False),
+    Option("values", (str, list), None, 'Its values: "1:9", "1:9:0.5" or a list.', cli=False),
+    Option("ellipsoid", (bool,), False, "S^V of each point's equivalent ellipsoid too.",
+           cli=False),
+    Option("chi", (str, list), "0.1:10", "Shear rates: a list (0.2,1,6) or a range LOW:HIGH, "
+           "log-spaced with --points."),
+    Option("points", (int,), None, "Points of a --chi range [default: 10].", least=2),
+    Option("type_tol", _NUMBER, 0.02, "Relative width in chi to which a change of "
+           "bifurcation type is located.", positive=True),
+    Option("locate_type_change", (bool,), True, "Do not locate the change of type.",
+           flag="--no-type-change", invert=True),
+    Option("cusps", (bool,), False, "codim2: continue each fold curve past the change of type "
+           "to its cusp, however many refused steps that takes (by default it is given up "
+           "there after 3 refused steps in a row: at N = 8 the cusps were not reached in 4-7 "
+           "min).", flag="--cusps"),
+    Option("continuation", (str,), "codim2", "codim2: the fold and Hopf curves continued in "
+           "(chi, lambda) on their augmented systems, with the Bogdanov-Takens and cusp points "
+           "and the change of type located, then each chi solved on its curve (every point "
+           "'located' only where its system converged). trace: the older one-parameter tracer "
+           "(a branch in lambda at each chi); --xtol, --type-tol, --states, --resume, --workers "
+           "and --scheduler apply to it only.", choices=("codim2", "trace")),
+    Option("form", (str,), "spec", "codim2: the Jacobian the curves are defined by: SPEC 9's "
+           "operator (what `critical` and --continuation trace compute) or the Newton matrix "
+           "with the multipliers' curvature (its fold is exactly the branch's turning point).",
+           choices=FORMS),
+    Option("psi", (str, list), "-0.6:0.8", "Inclinations of the ellipsoid map.", cli=False),
+    Option("lams", (str, list), "1:12", "Viscosity ratios of the ellipsoid map.", cli=False),
+)}  # fmt: skip
+
+
+def option_value(options: dict, key: str) -> Any:
+    """``options[key]``, else the option's default."""
+    return options.get(key, OPTIONS[key].default)
+
+
+def analysis(options: dict) -> StabilitySettings:
+    """A task's branch, modes and Jacobians (``orientation``, ``modes``, ``jacobian``)."""
+    return StabilitySettings(option_value(options, "orientation"), option_value(options, "modes"),
+                             option_value(options, "jacobian"))  # fmt: skip
+
+
+def solve(options: dict) -> dict:
+    """The settings of a task's Newton solves (``max_iterations``, ``updates``; its branch)."""
+    newton = NewtonSettings(max_iterations=option_value(options, "max_iterations"),
+                            updates=option_value(options, "updates"))  # fmt: skip
+    return {"newton": newton, "analysis": analysis(options)}
+
+
+# ------------------------------------------------------------------------ tasks
+def steady_state(physics: Physics, disc: Discretisation, options: dict, with_stability: bool,
+                 executor=None, progress=None):  # fmt: skip
+    """``vesicle tt`` (``--stability``) and the ``tt``/``stability`` tasks: the state reached
+    (:func:`vesicle.bifurcation.branch.reach`) and its stability (or ``None``)."""
+    r = reach(physics, disc, executor=executor, progress=progress, **solve(options))
+    s = stability(r, modes=analysis(options).modes, executor=executor) if with_stability else None
+    return r, s
+
+
+def steady_json(r, s, options: dict) -> dict:
+    """The JSON of a steady state: :func:`vesicle.steady.files.steady_summary` and how Newton
+    formed its Jacobians."""
+    return {**steady_summary(r, s), "updates": option_value(options, "updates"),
+            "jacobian": option_value(options, "jacobian")}  # fmt: skip
+
+
+def _tt(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    return steady_json(*steady_state(physics, disc, options, False), options)
+
+
+def _stability(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    return steady_json(*steady_state(physics, disc, options, True), options)
+
+
+def critical(physics: Physics, disc: Discretisation, options: dict, executor=None,
+             progress=None):  # fmt: skip
+    """``vesicle critical`` and the ``critical`` task: the search for lambda_c."""
+    search = CriticalSearch(lam0=option_value(options, "lam0"), step=option_value(options, "step"),
+                            xtol=option_value(options, "xtol"),
+                            coarse="auto" if option_value(options, "coarse") else None)  # fmt: skip
+    return critical_lambda(physics, disc, search=search, executor=executor, progress=progress,
+                           **solve(options))  # fmt: skip
+
+
+def critical_json(c, physics: Physics, disc: Discretisation, options: dict) -> dict:
+    """The JSON of a critical-lambda search (:func:`critical_summary`, the branch, Jacobians)."""
+    return {**critical_summary(c, physics, disc), "jacobian": option_value(options, "jacobian"),
+            "orientation": option_value(options, "orientation")}  # fmt: skip
+
+
+def _critical(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    return critical_json(critical(physics, disc, options), physics, disc, options)
+
+
+def _branch_values(options: dict) -> list[float]:
+    return parse_range(options["values"], "step", name="[task] values")
+
+
+def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    name = options["parameter"]
+    values = _branch_values(options)
+    start = physics.replace(**{name: values[0]})
+    keys = ("xtol", "past_fold", "locate", "arclength")
+    b = branch(start, disc, name, values, analysis=analysis(options),
+               continuation=ContinuationSettings(**{k: option_value(options, k) for k in keys}))
+    fixed = {k: x for k, x in physics.to_dict().items() if k != name}
+    result = b.to_dict()
+    if options.get("ellipsoid"):  # S^V of each point's equivalent ellipsoid (SPEC §11)
+        for p in result["points"]:
+            shape = equivalent_ellipsoid(p["axes"], p["axis_directions"], disc.grid)
+            p["ellipsoid"] = flow_stress(shape, [p["lam"]])[0].summary()
+    return stamped({"physics": fixed, "discretisation": disc.to_dict(),
+            **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result})  # fmt: skip
+
+
+#: settings that name folders of the points' files (not part of what a store's points share)
+FOLDERS = ("runs_dir", "curves_dir")
+
+def _neutral_chi(options: dict) -> list[float]:
+    return parse_range(options.get("chi", "0.1:10"), "log", points=options.get("points"),
+                       name="[task] chi", positive=True)
+
+
+def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    if options.get("continuation", "codim2") == "codim2":
+        keys = ("locate_type_change", "form", "cusps")
+        c = neutral_curve_codim2(physics, _neutral_chi(options), disc, analysis=analysis(options),
+                                 **{k: options[k] for k in keys if k in options})  # fmt: skip
+        return c.to_dict()  # written when complete (no checkpoint: see the module notes)
+    keys = ("xtol", "type_tol", "locate_type_change")
+    kwargs = {k: options[k] for k in keys if k in options}
+    branch_settings = analysis(options)
+    known, keep = [], None
+    if settings.get("curves_dir"):  # the curve's points and states as they are found: a curve
+        # cut short by a crash, Ctrl-C or a lost worker goes on from them when tried again
+        keep = Checkpoint(Path(settings["curves_dir"]) / f"{physics.key}.json", physics, disc,
+                          orientation=branch_settings.orientation, modes=branch_settings.modes,
+                          xtol=kwargs.get("xtol", 1e-3),
+                          jacobian=branch_settings.jacobian)  # fmt: skip
+        keep.out.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            known = keep.resume()
+        except ValueError as err:
+            log.warning("neutral curve %s: its checkpoint is not usable (%s): traced again",
+                        physics.key, err)  # fmt: skip
+        if known:
+            log.info("neutral curve %s: %d points from its checkpoint", physics.key, len(known))
+    c = neutral_curve(physics, _neutral_chi(options), disc, analysis=branch_settings, known=known,
+                      checkpoint=keep, **kwargs)  # fmt: skip
+    return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
+
+
+def _values(spec, points: int, name: str) -> list[float]:
+    """``ellipsoid_map``'s ``psi``/``lams``: a list, or ``LOW:HIGH`` with ``points`` values."""
+    if isinstance(spec, list):
+        return parse_range(spec, "linear", name=name)
+    return parse_range(spec, "linear", points=points, name=name)
+
+
+def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    """S^V of the TT state's equivalent ellipsoid turned over ``psi`` for every ``lams``."""
+    state = reach(physics, disc, analysis=analysis(options))
+    d = diagnose(state.shape)
+    psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)), "[task] psi")
+    lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)), "[task] lams")
+    m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid)
+    return stamped({"physics": physics.to_dict(),
+            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
+            "chi": physics.chi, "state": {"psi": state.psi, "axes": d.lengths.tolist(),
+                                          "axis_directions": d.axes.tolist()},
+            "map_psi": m["psi"].tolist(), "map_lam": m["lam"].tolist(),
+            **{k: np.asarray(m[k]).tolist() for k in ("S_xz", "N1", "N2")}})  # fmt: skip
+
+
+def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    params = RunParameters(physics, disc, settings.get("solver"), **settings.get("run", {}))
+    path, resume = None, None
+    if settings.get("runs_dir"):  # each point's run file, checkpointed: a point cut short by a
+        # crash, Ctrl-C or a lost worker resumes from its last checkpoint when tried again
+        path = Path(settings["runs_dir"]) / f"{physics.key}.h5"
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if path.exists():
+            try:
+                previous = read_run(path)
+            except (OSError, ValueError, KeyError) as err:
+                log.warning("run file %s unreadable (%s): the point starts again", path, err)
+                path.unlink()
+            else:
+                # the stop criteria only decide when to stop: a run to an earlier stop is the
+                # beginning of the same trajectory, and continues exactly from its checkpoint
+                stops = {k: getattr(params, k) for k in ("t_end", "periods", "steady_tol")}
+                same = load_parameters(previous).replace(**stops) == params
+                if previous.checkpoint is not None and same:
+                    resume = previous
+                    log.info("point %s resumes its run from t = %.4g", physics.key,
+                             float(previous.checkpoint["t"]))  # fmt: skip
+                else:
+                    path.unlink()
+    run = simulate(params, out=path, resume=resume)
+    return stamped({"physics": physics.to_dict(),
+            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
+            "chi": physics.chi, **summarize(run)})  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Task:
+    """A sweep task: the function of one point and what it sweeps and accepts."""
+
+    function: Callable[[Physics, Discretisation, dict, dict], dict]
+    swept: tuple[str, ...]  # the [grid] keys it takes
+    options: tuple[str, ...]  # the [task] keys it takes
+    #: why a result falls short of what the point asked for (None: it reached all of it); such
+    #: a point is recorded as failed, with what it found, and a rerun tries it again
+    incomplete: Callable[[dict], str | None] = lambda result: None
+
+
+def _branch_incomplete(result: dict) -> str | None:
+    """A branch that stopped before its last value (a fold, a failed step) is not done."""
+    if not result.get("stopped"):
+        return None
+    return f"the branch stopped before its last value: {result['stopped']}"
+
+
+def _neutral_incomplete(result: dict) -> str | None:
+    """A neutral curve with points it could not trace is not done."""
+    if not result.get("failed"):
+        return None
+    where = [f"before chi = {f['chi']:.4g}: {f['error']}" for f in result["failed"]]
+    return "the curve stopped: " + "; ".join(where)
+
+
+#: The tasks, by name; each point's result has the keys of the command's own --json output.
+_STEADY = ("jacobian", "max_iterations", "updates", "orientation")
+
+#: The tasks, by name; each point's result has the keys of the command's own --json output.
+TASKS = {
+    "tt": Task(_tt, GRID_KEYS, _STEADY),
+    "stability": Task(_stability, GRID_KEYS, (*_STEADY, "modes")),
+    "critical": Task(_critical, ("v", "chi"),
+                     ("jacobian", "max_iterations", "updates", "xtol", "lam0", "step",
+                      "orientation", "modes", "coarse")),
+    "branch": Task(_branch, GRID_KEYS,
+                   ("parameter", "values", "jacobian", "xtol", "past_fold", "locate",
+                    "arclength", "ellipsoid", "orientation", "modes"),
+                   _branch_incomplete),
+    "neutral": Task(_neutral, ("v",),
+                    ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change",
+                     "orientation", "modes", "continuation", "form", "cusps"),
+                    _neutral_incomplete),
+    "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
+    "run": Task(_run, GRID_KEYS, ()),
+}  # fmt: skip
+
+
+# ------------------------------------------------------------------------ checks
+def check_options(task: str, options: dict, grid: dict, points) -> None:
+    """A ``[task]`` table of ``task``, checked before any work (raises ValueError naming the
+    key): each value as its :class:`Option` takes it (type, choices, bounds), then the task's
+    own rules between keys.  Unknown keys are the caller's (with the closest known one)."""
+    for key, value in options.items():
+        OPTIONS[key].check(value)
+    analysis(options)  # the settings object refuses what the options cannot give together
+    _check_task(task, options, grid, points)
+
+
+def _check_task(task: str, options: dict, grid: dict, points) -> None:
+    """The branch and neutral tasks' own options (raises ValueError naming the key)."""
+    if task == "branch":
+        name = options.get("parameter")
+        if name not in PARAMETERS:
+            raise ValueError(f"[task] parameter must be one of {', '.join(PARAMETERS)} for "
+                             f"task = 'branch', got {name!r}")  # fmt: skip
+        if name in grid:
+            raise ValueError(f"[task] parameter {name!r} is continued along each branch: it "
+                             f"cannot also be in [grid]")  # fmt: skip
+        if "values" not in options:
+            raise ValueError("[task] values (e.g. \"1:9\" or [1, 2, 4]) are needed for "
+                             "task = 'branch'")  # fmt: skip
+        values = _branch_values(options)
+        for p in points:
+            for x in values:
+                p.replace(**{name: x})
+    if task == "ellipsoid_map":
+        for key in ("psi", "lams"):
+            if key in options:
+                values = _values(options[key], options.get("points", 15), f"[task] {key}")
+                if key == "lams" and any(not (x > 0) for x in values):
+                    raise ValueError(f"[task] lams must be positive, got {options[key]!r}")
+    if task == "neutral":
+        if "points" in options and not (isinstance(options.get("chi"), str) and
+                                        options["points"] >= 2):  # fmt: skip
+            raise ValueError("[task] points goes with a chi range \"LOW:HIGH\" and must be "
+                             "at least 2")  # fmt: skip
+        _neutral_chi(options)
+        how = option_value(options, "continuation")
+        if how == "codim2":
+            for key in ("xtol", "type_tol"):
+                if key in options:
+                    raise ValueError(f"[task] {key} applies to continuation = 'trace' only "
+                                     "(the two-parameter continuation solves each point to "
+                                     "its own tolerance)")  # fmt: skip
+        else:
+            for key in ("form", "cusps"):
+                if key in options:
+                    raise ValueError(f"[task] {key} applies to continuation = 'codim2' only")
+
+
