@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+import vesicle as vs
 from vesicle.dynamics.integrators import RunParameters
 from vesicle.dynamics.simulation import simulate
 from vesicle.stokes import singular_quadrature
@@ -24,11 +25,8 @@ PARTS = (
 
 def _case(grid: int, lam: float, integrator: str, t_end: float) -> dict:
     params = RunParameters(
-        v=0.95,
-        lam=lam,
-        chi=1.0,
-        grid=grid,
-        degree=8,
+        vs.Physics(v=0.95, lam=lam, chi=1.0),
+        vs.Discretisation(grid=grid, degree=8),
         t_end=t_end,
         save_every=t_end / 4,
         checkpoint_every=1e9,

@@ -21,6 +21,7 @@ from __future__ import annotations
 import os
 import time
 
+import vesicle as vs
 from vesicle.dynamics.integrators import RunParameters
 from vesicle.dynamics.simulation import simulate
 from vesicle.stokes import singular_quadrature
@@ -35,9 +36,16 @@ REFERENCE_RTOL = 1e-6
 
 def _run(grid: int, degree: int, lam: float, perturb: float, integrator: str, rtol: float):
     params = RunParameters(
-        v=0.95, lam=lam, chi=1.0, grid=grid, degree=degree, t_end=1.0, save_every=0.25,
-        dt_max=0.25, perturb=perturb, checkpoint_every=1e9, integrator=integrator, rtol=rtol,
-    )  # fmt: skip
+        vs.Physics(v=0.95, lam=lam, chi=1.0),
+        vs.Discretisation(grid=grid, degree=degree),
+        t_end=1.0,
+        save_every=0.25,
+        dt_max=0.25,
+        perturb=perturb,
+        checkpoint_every=1e9,
+        integrator=integrator,
+        rtol=rtol,
+    )
     t0 = time.perf_counter()
     run = simulate(params)
     wall = time.perf_counter() - t0

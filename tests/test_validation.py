@@ -115,9 +115,15 @@ def test_vorticity_branch_growth_agrees_with_time_stepping():
     assert w_i > 0  # the pair is unstable at this resolution
     k = int(np.argmin(np.abs(mu.imag + w_r) + np.abs(mu.real - w_i)))
     w = W[:, k].conj() / (W[:, k].conj() @ V[:, k])
-    params = RunParameters(v=0.95, lam=11.0, chi=4.0, grid=12, degree=4, t_end=30.0,
-                           save_every=0.25, integrator="ros34pw2", rtol=1e-5,
-                           tolerances="steady")  # fmt: skip
+    params = RunParameters(
+        vs.Physics(v=0.95, lam=11.0, chi=4.0),
+        vs.Discretisation(grid=12, degree=4),
+        t_end=30.0,
+        save_every=0.25,
+        integrator="ros34pw2",
+        rtol=1e-5,
+        tolerances="steady",
+    )
     run = simulate(params, start=r.shape.perturbed(1e-3, seed=3, degree=4))
     t = run.series["t"]
     c = np.array([w @ (problem.coefficients_of(Shape(run.coefficients[i], 12)) - a0)

@@ -31,6 +31,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+import vesicle as vs
 from vesicle.cli import main
 
 SECONDS = 60  # per case: parsing and checks only
@@ -51,7 +52,12 @@ def make_inputs(folder: Path) -> dict[str, str]:
     from vesicle.steady.newton import steady_tank_treading
     from vesicle.workflows.sweep import SweepStore
 
-    simulate(RunParameters(grid=8, degree=2, t_end=0.01, save_every=0.005), out=folder / "run.h5")
+    simulate(
+        RunParameters(
+            vs.Physics(), vs.Discretisation(grid=8, degree=2), t_end=0.01, save_every=0.005
+        ),
+        out=folder / "run.h5",
+    )
     write_steady(folder / "tt.h5", steady_tank_treading(Physics(), Discretisation(8, 2)), None)
     SweepStore(folder / "store.h5", "fingerprint", "", "tt").write()
     (folder / "text.h5").write_text("not HDF5\n")

@@ -41,13 +41,13 @@ if out.exists():
     data = read_run(out)
     simulate(load_parameters(data), out=out, resume=data, progress=step)
 else:
-    simulate(RunParameters(**{params!r}), out=out, progress=step)
+    simulate(RunParameters().replace(**{params!r}), out=out, progress=step)
 print("done", flush=True)
 """
 
 
 def _reference(params=PARAMS):
-    return simulate(RunParameters(**params))
+    return simulate(RunParameters().replace(**params))
 
 
 def _killed_and_resumed(out: Path, kills: int, seed: int, params=PARAMS) -> int:
@@ -118,7 +118,7 @@ def test_twenty_sigkills_then_resume_is_bit_identical(tmp_path):
 @pytest.fixture
 def run_file(tmp_path):
     out = tmp_path / "r.h5"
-    simulate(RunParameters(**{**PARAMS, "t_end": 0.02}), out=out)
+    simulate(RunParameters().replace(**{**PARAMS, "t_end": 0.02}), out=out)
     return out
 
 

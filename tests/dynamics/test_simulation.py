@@ -23,7 +23,8 @@ FAST = {"grid": 12, "degree": 4, "save_every": 0.02, "dt0": 1e-3}
 
 
 def params(**changes):
-    return RunParameters(**{**FAST, "t_end": 0.06, **changes})
+    """The small run, with ``changes`` (flat physics and discretisation keys too)."""
+    return RunParameters().replace(**{**FAST, "t_end": 0.06, **changes})
 
 
 def test_restart_is_bit_identical(tmp_path):
@@ -196,7 +197,7 @@ def test_bad_run_parameters_are_refused(name, value):
 
 def test_too_coarse_grid_is_refused():
     with pytest.raises(ValueError, match="too coarse"):
-        RunParameters(grid=8, degree=8)
+        RunParameters(vs.Physics(), vs.Discretisation(grid=8, degree=8))
 
 
 class _ModelIntegrator(Integrator):
@@ -218,7 +219,9 @@ def test_integrators_converge_at_their_order_with_an_approximate_jacobian(integr
     """ROS2 and ROS34PW2 are W-methods: orders 2 and 3 for any approximate Jacobian (here half
     the true one); the orders are those their papers state (Verwer et al. 1999; Rang &
     Angermann 2005), measured here on a stiff model problem."""
-    integ = _ModelIntegrator(RunParameters(grid=12, degree=4, integrator=integrator))
+    integ = _ModelIntegrator(
+        RunParameters(vs.Physics(), vs.Discretisation(grid=12, degree=4), integrator=integrator)
+    )
     if integrator not in ("ros2", "ros34pw2"):  # explicit: stable only for dt < ~2.5/400
         # drop that mode
         integ.G = np.array([0.0, 0.0, 3.0, 40.0, 0.0])
@@ -239,7 +242,9 @@ def test_integrators_converge_at_their_order_with_an_approximate_jacobian(integr
 def test_ros34pw2_error_estimate_is_of_third_order():
     """The embedded order-2 solution makes the local error estimate O(h^3) (ROS2's Euler
     estimate is O(h^2)): halving h divides it by 8, with an approximate Jacobian."""
-    integ = _ModelIntegrator(RunParameters(grid=12, degree=4, integrator="ros34pw2"))
+    integ = _ModelIntegrator(
+        RunParameters(vs.Physics(), vs.Discretisation(grid=12, degree=4), integrator="ros34pw2")
+    )
     integ.G = np.array([0.0, 0.0, 3.0, 40.0, 0.0])  # h G < 1: the asymptotic regime
     y0 = np.full((5, 5), 0.3 + 0.0j)
     errors = [integ.step(y0, h, integ.evaluate(y0, None)).error for h in (2e-3, 1e-3, 5e-4)]
@@ -306,8 +311,13 @@ def test_a_step_near_a_save_time_is_split_evenly_not_into_a_sliver():
 def test_landing_on_a_save_time_does_not_shrink_the_next_step():
     """A step cut short to hit a save time keeps the proposal it was cut from: the steps right
     after each save are not smaller than the cut step's proposal would make them."""
-    params = RunParameters(v=0.95, lam=1.0, chi=1.0, grid=12, degree=4, t_end=0.3,
-                           save_every=0.05, rtol=1e-4)  # fmt: skip
+    params = RunParameters(
+        vs.Physics(v=0.95, lam=1.0, chi=1.0),
+        vs.Discretisation(grid=12, degree=4),
+        t_end=0.3,
+        save_every=0.05,
+        rtol=1e-4,
+    )
     run = simulate(params)
     assert np.allclose(np.diff(run.series["t"]), 0.05)
     # 53 steps when the cut step's proposal was taken; 45 now, none rejected
@@ -387,8 +397,13 @@ def test_a_run_stopped_at_a_steady_state_is_tt_and_says_why():
     from vesicle.geometry.diagnostics import summarize
 
     steady = vs.steady_tank_treading(vs.Physics(v=0.95, lam=1.0, chi=1.0), vs.Discretisation(12, 4))
-    params = RunParameters(v=0.95, lam=1.0, chi=1.0, grid=12, degree=4, t_end=1.0,
-                           steady_tol=2e-2, save_fields=False)  # fmt: skip
+    params = RunParameters(
+        vs.Physics(v=0.95, lam=1.0, chi=1.0),
+        vs.Discretisation(grid=12, degree=4),
+        t_end=1.0,
+        steady_tol=2e-2,
+        save_fields=False,
+    )
     run = simulate(params, start=steady.shape)
     summary = summarize(run)
     assert run.checkpoint["stopped"] == "steady" and summary["stopped"] == "steady"

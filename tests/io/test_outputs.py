@@ -17,8 +17,9 @@ from vesicle.io.files import OPTIONAL_SERIES, SERIES, read_run
 @pytest.fixture(scope="module")
 def run_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("out") / "r.h5"
-    simulate(RunParameters(v=0.9, lam=2.0, grid=12, degree=4, t_end=0.02, save_every=0.01),
-             out=path)  # fmt: skip
+    params = RunParameters(vs.Physics(v=0.9, lam=2.0), vs.Discretisation(grid=12, degree=4),
+                           t_end=0.02, save_every=0.01)  # fmt: skip
+    simulate(params, out=path)
     return path
 
 
@@ -89,10 +90,11 @@ def test_stored_velocity_moves_the_stored_shapes(tmp_path):
     from vesicle.model.kinematics import rate_of_change
 
     path = tmp_path / "r.h5"
-    simulate(RunParameters(v=0.9, lam=2.0, chi=3.0, grid=12, degree=4, t_end=0.006,
-                           save_every=0.001, dt0=1e-3, dt_max=1e-3, drift_control=False,
-                           recenter_threshold=1e9, tolerances="steady"),
-             out=path)  # fmt: skip
+    params = RunParameters(vs.Physics(v=0.9, lam=2.0, chi=3.0), vs.Discretisation(12, 4),
+                           t_end=0.006, save_every=0.001, dt0=1e-3, dt_max=1e-3,
+                           drift_control=False, recenter_threshold=1e9,
+                           tolerances="steady")  # fmt: skip
+    simulate(params, out=path)
     run = read_run(path)
     c, t = run.coefficients, run.series["t"]
     for i in (2, 3):
@@ -103,8 +105,17 @@ def test_stored_velocity_moves_the_stored_shapes(tmp_path):
 
 def test_split_stress_and_no_fields_are_honoured(tmp_path):
     path = tmp_path / "r.h5"
-    simulate(RunParameters(v=0.9, lam=2.0, grid=12, degree=4, t_end=0.01, save_every=0.01,
-                           split_stress=True, save_fields=False), out=path)  # fmt: skip
+    simulate(
+        RunParameters(
+            vs.Physics(v=0.9, lam=2.0),
+            vs.Discretisation(grid=12, degree=4),
+            t_end=0.01,
+            save_every=0.01,
+            split_stress=True,
+            save_fields=False,
+        ),
+        out=path,
+    )
     run = read_run(path)
     assert run.fields == {} and "S_bending" in run.series
     np.testing.assert_allclose(run.series["S_bending"] + run.series["S_flow"], run.series["S"],

@@ -6,6 +6,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
+import vesicle as vs
 from vesicle import Shape
 from vesicle.io.files import RunData
 from vesicle.io.vtk import export_vtk, surface_mesh
@@ -142,8 +143,14 @@ def run_with_fields(tmp_path_factory):
     from vesicle.io.files import read_run
 
     path = tmp_path_factory.mktemp("fields") / "r.h5"
-    params = RunParameters(v=0.9, lam=2.0, chi=3.0, grid=12, degree=4, t_end=0.02,
-                           save_every=0.001, dt0=1e-3, dt_max=1e-3)  # fmt: skip
+    params = RunParameters(
+        vs.Physics(v=0.9, lam=2.0, chi=3.0),
+        vs.Discretisation(grid=12, degree=4),
+        t_end=0.02,
+        save_every=0.001,
+        dt0=1e-3,
+        dt_max=1e-3,
+    )
     simulate(params, out=path)
     return read_run(path)
 

@@ -107,7 +107,12 @@ def test_bad_discretisations_are_refused(changes, message):
 
 
 def test_run_parameters_compose_the_objects_and_read_through():
-    p = RunParameters(v=0.9, lam=2.0, grid=16, degree=4, t_end=0.5, tolerances="steady")
+    p = RunParameters(
+        vs.Physics(v=0.9, lam=2.0),
+        vs.Discretisation(grid=16, degree=4),
+        t_end=0.5,
+        tolerances="steady",
+    )
     assert p.physics == vs.Physics(v=0.9, lam=2.0)
     assert p.discretisation == vs.Discretisation(grid=16, degree=4)
     assert p.solver == vs.SolverTolerances.steady()
@@ -115,6 +120,10 @@ def test_run_parameters_compose_the_objects_and_read_through():
     q = p.replace(lam=3.0, t_end=1.0)
     assert q.physics.lam == 3.0 and q.t_end == 1.0 and q.discretisation == p.discretisation
     assert RunParameters.from_dict(json.loads(json.dumps(p.to_dict()))) == p
+    # the former flat constructor: one release more, with a warning, the same object
+    with pytest.warns(vs.VesicleDeprecationWarning, match="flat v, lam, grid, degree"):
+        flat = RunParameters(v=0.9, lam=2.0, grid=16, degree=4, t_end=0.5, tolerances="steady")
+    assert flat == p
     with pytest.raises(ValueError, match="not both"):
         RunParameters(vs.Physics(), lam=2.0)
     with pytest.raises(ValueError, match="perturb"):

@@ -40,7 +40,12 @@ def _far_field(shape, r, lam):
 def _tumbling_snapshot():
     """A shape from a time-dependent run in the TR/TU range (lam = 10, chi = 8; TR at N = 8),
     mid-transient: no symmetry beyond the run's own."""
-    p = RunParameters(v=0.95, lam=10.0, chi=8.0, grid=16, degree=4, t_end=0.1, perturb=0.02)
+    p = RunParameters(
+        vs.Physics(v=0.95, lam=10.0, chi=8.0),
+        vs.Discretisation(grid=16, degree=4),
+        t_end=0.1,
+        perturb=0.02,
+    )
     return simulate(p).shape()
 
 

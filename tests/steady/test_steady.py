@@ -300,11 +300,8 @@ def test_parallel_jacobian_is_identical_to_serial(steady):
 
 def test_steady_shape_stays_steady_in_time(steady):
     params = RunParameters(
-        v=0.95,
-        lam=8.0,
-        chi=10.0,
-        grid=16,
-        degree=4,
+        vs.Physics(v=0.95, lam=8.0, chi=10.0),
+        vs.Discretisation(grid=16, degree=4),
         t_end=0.05,
         save_every=0.025,
         tolerances="steady",

@@ -44,7 +44,12 @@ def test_cli_options_override_the_file_and_the_merge_is_what_is_written(tmp_path
 
 def test_a_run_file_exports_to_a_config_that_repeats_it(tmp_path):
     run = tmp_path / "r.h5"
-    p = RunParameters(v=0.9, lam=2.0, grid=12, degree=4, t_end=0.01, save_every=0.01)
+    p = RunParameters(
+        vs.Physics(v=0.9, lam=2.0),
+        vs.Discretisation(grid=12, degree=4),
+        t_end=0.01,
+        save_every=0.01,
+    )
     simulate(p, out=run)
     r = cli("config", str(run), "--out", str(tmp_path / "r.toml"))
     assert r.exit_code == 0, r.output

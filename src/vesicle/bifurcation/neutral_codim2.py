@@ -254,18 +254,6 @@ class _Context:
     #: the points of the curve under way (what an interruption keeps of it)
     current: list = field(default_factory=list)
 
-    @property
-    def modes(self) -> str:
-        return self.analysis.modes
-
-    @property
-    def orientation(self) -> str:
-        return self.analysis.orientation
-
-    @property
-    def jacobian(self) -> str:
-        return self.analysis.jacobian
-
     def at(self, chi: float, lam: float) -> Physics:
         return self.physics.replace(chi=float(chi), lam=float(lam))
 
@@ -303,7 +291,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
     state = start if start is not None else _curve_start(ctx, chi, lam0)
     if state is None:
         state = reach(ctx.at(chi, lam0), ctx.disc, analysis=ctx.analysis)  # fmt: skip
-    growth, freq = _leading(state, ctx.modes)
+    growth, freq = _leading(state, ctx.analysis.modes)
     if growth >= 0 and side > 0 and lam0 > LOW_START and lo <= LOW_START:
         # unstable there: the branch from low lambda is the one asked for, and the state
         # reached may lie on another (v = 0.90, N = 4, chi = 0.1: a state with a complex
@@ -313,7 +301,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
             low = _curve_start(ctx, chi, LOW_START) or reach(
                 ctx.at(chi, LOW_START), ctx.disc, analysis=ctx.analysis)  # fmt: skip
             state = low
-            growth, freq = _leading(state, ctx.modes)
+            growth, freq = _leading(state, ctx.analysis.modes)
         except _FAILURES as err:
             log.info("chi = %.4g: no state at lambda = %g (%s)", chi, LOW_START, err)
     while growth >= 0:  # start lower (higher for the vorticity branch) until stable
@@ -326,7 +314,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
                                          analysis=ctx.analysis)  # fmt: skip
         except _FAILURES:  # (a fold on the way down): reached afresh, as the first state was
             state = reach(ctx.at(chi, lam), ctx.disc, analysis=ctx.analysis)  # fmt: skip
-        growth, freq = _leading(state, ctx.modes)
+        growth, freq = _leading(state, ctx.analysis.modes)
     last: tuple[float, float] | None = None  # the previous state's (lam, growth)
     last_rate: float | None = None  # |da / dlam| of the last step
     while True:
@@ -342,7 +330,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
                               f"{state.lam:.4g} (the box ends at {hi if side > 0 else lo:g})")
         while nxt is None:
             try:
-                along = StabilitySettings(state.orientation, ctx.modes, ctx.jacobian)
+                along = ctx.analysis.replace(orientation=state.orientation)
                 nxt = steady_tank_treading(ctx.at(chi, lam), ctx.disc, initial=state,
                                            analysis=along)  # fmt: skip
                 rate = float(np.linalg.norm(nxt.a - state.a)) / abs(lam - state.lam)
@@ -361,7 +349,7 @@ def _first_loss(ctx: _Context, chi: float, lam0: float, start=None) -> codim2.Cu
                     return _locate(ctx, "fold", x, p)
                 lam = state.lam * step ** (0.5**halvings)
         last_rate = rate
-        g2, f2 = _leading(nxt, ctx.modes)
+        g2, f2 = _leading(nxt, ctx.analysis.modes)
         if g2 >= 0:
             _keep_stable(ctx, state)
         ctx.say({"chi": chi, "lam": nxt.lam, "growth": g2})
@@ -414,7 +402,7 @@ def _curve_start(ctx: _Context, chi: float, lam0: float):
         except _FAILURES as err:
             log.info("chi = %.4g: no state from a nearby one (%s)", chi, err)
             continue
-        growth, _ = _leading(state, ctx.modes)
+        growth, _ = _leading(state, ctx.analysis.modes)
         if growth < 0:
             return state
     return None
@@ -457,8 +445,9 @@ def _coarse_first_loss(ctx: _Context, chi: float, lam0: float) -> codim2.CurvePo
     if coarse is None:
         return None
     try:
-        ceq = SteadyEquations(ctx.physics.replace(chi=chi, lam=lam0), coarse, modes=ctx.modes,
-                              jacobian=ctx.jacobian, form=ctx.eq.form)  # fmt: skip
+        ceq = SteadyEquations(ctx.physics.replace(chi=chi, lam=lam0), coarse,
+                              modes=ctx.analysis.modes, jacobian=ctx.analysis.jacobian,
+                              form=ctx.eq.form)  # fmt: skip
         q = _first_loss(replace(ctx, disc=coarse, eq=ceq,
                                 say=lambda d: ctx.say({"coarse": d})), chi, lam0)  # fmt: skip
         if not q.converged:
@@ -767,7 +756,8 @@ def _partial(ctx: _Context, chis: Sequence[float], failed: list[dict]) -> dict:
         curves.append({"kind": ctx.current[0]["curve"], "end": "interrupted",
                        "points": list(ctx.current)})  # fmt: skip
     return {"complete": False, "interrupted": True, "method": "codim2",
-            "v": float(ctx.physics.v), "orientation": ctx.orientation, "modes": ctx.modes,
+            "v": float(ctx.physics.v), "orientation": ctx.analysis.orientation,
+            "modes": ctx.analysis.modes,
             "chi_requested": [float(c) for c in chis], "curves": curves,
             "bt_points": _special_dicts(ctx, "bt"), "cusp_points": _special_dicts(ctx, "cusp"),
             "turn_points": _special_dicts(ctx, "turn"), "failed": list(failed)}  # fmt: skip

@@ -397,7 +397,7 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
     cusp points printed (or the JSON)."""
     try:
         _configure(ctx, options, config_path)
-        physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
+        physics, disc = make_physics(options), make_discretisation(options)
         curve = neutral_curve_codim2(physics, chis, disc,
                                      analysis=StabilitySettings(orientation, modes, jacobian),
                                      form=form, locate_type_change=type_change, cusps=cusps,
@@ -522,7 +522,7 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, cusps
     found: list[dict] = []
     try:
         _configure(ctx, options, config_path)
-        physics, disc = make_physics(options, lam=1.0, chi=chis[0]), make_discretisation(options)
+        physics, disc = make_physics(options), make_discretisation(options)
         keep, known = None, []
         if out is not None or states is not None:
             keep = Checkpoint(out, physics, disc, folder=states, orientation=orientation,

@@ -32,6 +32,7 @@ that has moved by more than ``recenter_threshold``.
 from __future__ import annotations
 
 import logging
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,6 +41,7 @@ from vesicle.geometry.diagnostics import diagnose, recentered
 from vesicle.geometry.surface import Shape, ShapeError
 from vesicle.model.kinematics import area_volume_variations, rate_of_change
 from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
+from vesicle.model.settings import VesicleDeprecationWarning
 from vesicle.solve.solver import FlowResult, solve_flow
 from vesicle.sphere.transforms import resize, transform
 from vesicle.stokes.spectra import sphere_relaxation_rates
@@ -153,9 +155,11 @@ class RunParameters:
     Composed of a :class:`~vesicle.model.parameters.Physics`, a
     :class:`~vesicle.model.parameters.Discretisation`, the :class:`SolverTolerances` of each solve
     (default: SPEC §6's time-dependent preset) and the run's own settings
-    (:data:`RUN_DEFAULTS`).  For convenience the physics and discretisation may also be given
-    as flat keywords (``RunParameters(v=0.95, lam=8, chi=10, t_end=5)``), and ``tolerances`` as
-    a preset name; ``v``, ``lam``, ``chi``, ``flow``, ``grid`` and ``degree`` read through.
+    (:data:`RUN_DEFAULTS`), e.g. ``RunParameters(Physics(v=0.95, lam=8, chi=10),
+    Discretisation(), t_end=5)``; ``tolerances`` may be a preset name; ``v``, ``lam``, ``chi``,
+    ``flow``, ``grid`` and ``degree`` read through, and :meth:`replace` takes them flat.  The
+    former flat constructor (``RunParameters(v=0.95, lam=8, chi=10, t_end=5)``) works for one
+    release, with a :class:`~vesicle.model.settings.VesicleDeprecationWarning`.
     """
 
     physics: Physics
@@ -199,6 +203,10 @@ class RunParameters:
             raise ValueError(f"unknown run parameter(s) {', '.join(sorted(unknown))}")
         physics = _compose(Physics, physics, flat_p, "physics")
         discretisation = _compose(Discretisation, discretisation, flat_d, "discretisation")
+        if flat_p or flat_d:
+            warnings.warn(f"RunParameters with flat {', '.join([*flat_p, *flat_d])} is deprecated: "
+                          "pass Physics and Discretisation objects (or use replace(...))",
+                          VesicleDeprecationWarning, stacklevel=2)  # fmt: skip
         solver = SolverTolerances.parse(solver if solver is not None else "time-dependent")
         object.__setattr__(self, "physics", physics)
         object.__setattr__(self, "discretisation", discretisation)
@@ -262,7 +270,7 @@ class RunParameters:
             "solver": self.solver,
             **{name: getattr(self, name) for name in RUN_DEFAULTS},
         }
-        return RunParameters(**{**fields, **changes})
+        return RunParameters(**{**fields, **changes})  # objects: no flat keys left
 
     def to_dict(self) -> dict:
         return {
@@ -284,6 +292,15 @@ class RunParameters:
             data["discretisation"] = Discretisation.from_dict(data["discretisation"])
         if isinstance(data.get("solver"), dict):
             data["solver"] = SolverTolerances.from_dict(data["solver"])
+        # files of the flat format: their keys made into the objects here (stored files keep
+        # working without the deprecated flat constructor)
+        flat_p = {k: data.pop(k) for k in _PHYSICS_KEYS if k in data}
+        flat_d = {k: data.pop(k) for k in _DISCRETISATION_KEYS if k in data}
+        if flat_p:
+            data["physics"] = _compose(Physics, data.get("physics"), flat_p, "physics")
+        if flat_d:
+            data["discretisation"] = _compose(Discretisation, data.get("discretisation"),
+                                              flat_d, "discretisation")  # fmt: skip
         return cls(**data)
 
 

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from vesicle._version import __version__
-from vesicle.io.files import text_written_atomically, write_text_atomically
+from vesicle.io.files import stamped, text_written_atomically, write_text_atomically
 from vesicle.model.published import (  # the paper's stated values: one home
     PAPER_FIT_AGREEMENT,
     PAPER_LABEL,
@@ -685,6 +685,7 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     over the last half, its axes drawn on the unit sphere and seen along the vorticity axis."""
     from vesicle.dynamics.integrators import RunParameters
     from vesicle.io.files import read_run
+    from vesicle.model.parameters import Discretisation, Physics
     from vesicle.plots.runs import plot_out_of_plane
 
     grid, degree = _resolution(quick)
@@ -694,15 +695,15 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
              for c in options.get("tilted", TILTED_QUICK if quick else TILTED)]  # fmt: skip
     names = [f"lam{lam:g}_tilt{tilt:g}_N{degree}_{grid}" for lam, tilt, _ in cases]  # a resolution
     calls = [(str(folder / f"{name}.h5"),  # never reuses another's files
-              RunParameters(v=0.95, lam=lam, chi=4.0, grid=grid, degree=degree, t_end=end,
-                            save_every=0.05, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
-                            rtol=1e-3, save_fields=False))
+              RunParameters(Physics(v=0.95, lam=lam, chi=4.0), Discretisation(grid, degree),
+                            t_end=end, save_every=0.05, dt_max=0.25, tilt=tilt,
+                            integrator="ros34pw2", rtol=1e-3, save_fields=False))
              for name, (lam, tilt, end) in zip(names, cases, strict=True)]  # fmt: skip
     tu_cases = options.get("tilted_tu", TILTED_TU_QUICK if quick else TILTED_TU)
     tu_names = [f"tu_lam{lam:g}_chi{chi:g}_tilt{tilt:g}_N{degree}_{grid}"
                 for lam, chi, tilt in tu_cases]  # fmt: skip
     calls += [(str(folder / f"{name}.h5"),
-               RunParameters(v=0.95, lam=lam, chi=chi, grid=grid, degree=degree,
+               RunParameters(Physics(v=0.95, lam=lam, chi=chi), Discretisation(grid, degree),
                              t_end=float(options.get("tumbling_t_end", 120.0 / chi)),
                              save_every=0.1 / chi, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
                              rtol=1e-3, save_fields=False))
@@ -912,7 +913,7 @@ def _run_compute(compute: Callable, folder: Path, quick: bool, options: dict) ->
 
 def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
                   progress: Callable[[str], None] | None) -> dict:
-    content.update(quick=quick, vesicle_version=__version__)
+    content = stamped(content, quick=quick)
     write_text_atomically(outdir / item.key / "item.json",
                           json.dumps(content, indent=1, default=str))  # fmt: skip
     if progress is not None:
@@ -1011,10 +1012,11 @@ def _record_report(outdir: Path, todo: list[Item], quick: bool, concurrent: bool
     """``DIR/report.json``: the wall time of this call, what it computed and how."""
     path = outdir / "report.json"
     history = json.loads(path.read_text()).get("calls", []) if path.exists() else []
-    history.append({"items": [i.key for i in todo], "seconds": seconds, "quick": quick,
-                    "concurrent": concurrent, "workers": options.get("workers"),
-                    "scheduler": options.get("scheduler"), "vesicle_version": __version__,
-                    "finished": time.strftime("%Y-%m-%d %H:%M:%S")})  # fmt: skip
+    history.append(stamped({"items": [i.key for i in todo], "seconds": seconds,
+                            "quick": quick, "concurrent": concurrent,
+                            "workers": options.get("workers"),
+                            "scheduler": options.get("scheduler"),
+                            "finished": time.strftime("%Y-%m-%d %H:%M:%S")}))  # fmt: skip
     write_text_atomically(path, json.dumps({"calls": history}, indent=1))
 
 

@@ -1,7 +1,7 @@
 """Parameter sweeps on Dask with a crash-proof results store (issue 13, part 3).
 
-A sweep is a task (:data:`vesicle.workflows.tasks.TASKS`) evaluated at every point of a parameter grid.  Its config is a
-TOML file::
+A sweep is a task (:data:`vesicle.workflows.tasks.TASKS`) evaluated at every point of a
+parameter grid.  Its config is a TOML file::
 
     [sweep]
     task = "tt"            # tt | stability | critical | branch | neutral | run
