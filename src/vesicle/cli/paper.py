@@ -78,3 +78,30 @@ def _only_items(only: str | None) -> list[str] | None:
         fail(f"--only: unknown item(s) {', '.join(unknown)}; the items are {', '.join(known)} "
              "(vesicle paper --list)")  # fmt: skip
     return keys
+
+
+@main.command("validation")
+@click.option("--full", "full_dir", type=click.Path(file_okay=False, exists=True), required=True,
+              help="The full report's folder (vesicle paper --out DIR).")
+@click.option("--quick", "quick_dir", type=click.Path(file_okay=False, exists=True),
+              default=None, help="A quick report's folder, whose values go beside the full's.")
+@click.option("--page", type=click.Path(dir_okay=False), default="docs/validation.md",
+              show_default=True,
+              help="The page whose generated section is replaced (appended if it has none).")
+@click.option("--data", type=click.Path(file_okay=False), default="docs/validation",
+              show_default=True, help="Folder for report.csv and report.json.")
+@click.option("--package", "package", type=click.Path(file_okay=False), default=None,
+              help="Also store the full report's values as the package's data here "
+              "(src/vesicle/workflows/data: the quick report shows them beside its own).")
+def validation_command(full_dir, quick_dir, page, data, package) -> None:
+    """The validation page's table of the report's comparisons, from a full report (and a
+    quick one): nothing is computed, every number is a report's."""
+    from vesicle.workflows.validation import write_validation
+
+    try:
+        table = write_validation(full_dir, quick_dir, page, data, package)
+    except (ValueError, OSError) as err:
+        fail(str(err))
+    compared = sum(1 for r in table if r["full_compared"])
+    click.echo(f"{len(table)} comparisons ({compared} compared at the full resolution) written "
+               f"to {page} and {data}/report.csv, report.json")  # fmt: skip

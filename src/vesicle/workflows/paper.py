@@ -88,13 +88,17 @@ def _map(options: dict, fn: Callable, calls: list[tuple]) -> list:
 
 # ------------------------------------------------------------- the comparisons
 def _compare(quantity: str, paper: float, ours: float | None, *, located: bool | None = None,
-             note: str = "", compared: bool | None = None, bound: bool = False) -> dict:
+             note: str = "", compared: bool | None = None, bound: bool = False,
+             key: str | None = None) -> dict:
     """A value of the paper (SPEC §14) beside ours.  ``located``: for a special point (a fold,
     a Hopf point, a change of type), whether ours was located to its tolerance; an estimate is
     shown but not compared.  ``compared``: default, when ``ours`` exists and is not an
     estimate; ``note``: what differs (the resolution), or why it is not compared; ``bound``:
-    the paper's value is an upper bound ("agrees to about 1 %"): ours is within it or not."""
-    c = {"quantity": quantity, "paper": float(paper),
+    the paper's value is an upper bound ("agrees to about 1 %"): ours is within it or not.
+    ``key``: the comparison's name at any resolution (default ``quantity``; where the quantity
+    names a computed value or the degree, the key does not), by which the validation page sets
+    the full report's value beside the quick one's (:mod:`vesicle.workflows.validation`)."""
+    c = {"quantity": quantity, "key": key or quantity, "paper": float(paper),
          "ours": None if ours is None else float(ours)}  # fmt: skip
     if bound:
         c["bound"] = True
@@ -107,11 +111,14 @@ def _compare(quantity: str, paper: float, ours: float | None, *, located: bool |
 
 
 def _check(quantity: str, reference: str, value: float, ours: float, *,
-           located: bool | None = None, note: str = "", compared: bool = True) -> dict:
+           located: bool | None = None, note: str = "", compared: bool = True,
+           key: str | None = None) -> dict:
     """One of our values against another reference than the paper (``reference`` names it:
     our stability analysis, a normal form), so the page never heads it "paper".  ``compared``
-    false: listed with its note, not compared (a value that is not the reference's quantity)."""
-    c = {"quantity": quantity, "reference": reference, "reference_value": float(value),
+    false: listed with its note, not compared (a value that is not the reference's quantity);
+    ``key`` as for :func:`_compare`."""
+    c = {"quantity": quantity, "key": key or quantity, "reference": reference,
+         "reference_value": float(value),
          "ours": float(ours), "compared": bool(compared) and located is not False}  # fmt: skip
     if located is not None:
         c["located"] = bool(located)
@@ -276,9 +283,11 @@ def _fig_spectrum(folder: Path, quick: bool, options: dict) -> dict:
     if paper and state.omega is not None:
         note = _grid_note(grid, degree)
         comparisons = [_compare(f"most unstable omega_R, N = {degree}", paper[0],
-                                abs(float(state.omega[0, 0])), note=note),
+                                abs(float(state.omega[0, 0])), note=note,
+                                key="most unstable omega_R"),
                        _compare(f"most unstable omega_I, N = {degree}", paper[1],
-                                float(state.omega[0, 1]), note=note)]  # fmt: skip
+                                float(state.omega[0, 1]), note=note,
+                                key="most unstable omega_I")]  # fmt: skip
     return {"figures": figures, "tables": [str(path)], "comparisons": comparisons,
             "parameters": {"v": 0.95, "lam": 8.0, "chi": 10.0, "degree": degree,
                            "grid": grid}}  # fmt: skip
@@ -395,6 +404,7 @@ def _period_checks(folder: Path, hopf, grid: int, degree: int) -> tuple[list[dic
             f"chi = 6: TR period at lam = {r['lam']:g} against 2 pi / omega_R at the Hopf point "
             f"lam_c = {c['lambda_c']:.4g} (equal as lam -> lam_c)",
             "2π/ω_R at our Hopf point", 2 * np.pi / c["omega_R"], r["period"],
+            key="chi = 6: TR period nearest the Hopf point against 2 pi / omega_R there",
             located=True))  # fmt: skip
     low = runs("periods-low-shear")
     lams, periods = [r["lam"] for r in low], [r["period"] for r in low]
@@ -402,7 +412,8 @@ def _period_checks(folder: Path, hopf, grid: int, degree: int) -> tuple[list[dic
     if free is not None:
         comparisons.append(_compare("chi = 0.2: exponent p of T ~ (lam - lam_c)^(-p), lam_c "
                                     f"fitted ({free['lambda_c']:.4g})", PAPER_PERIOD_EXPONENT,
-                                    free["p"]))  # fmt: skip
+                                    free["p"], key="chi = 0.2: period exponent p, lam_c "
+                                    "fitted"))  # fmt: skip
     branch = folder.parent / "fig8" / f"branch_N{degree}_{grid}.json"
     stored = json.loads(branch.read_text()) if branch.exists() else {}
     folds = [s for s in stored.get("special_points", []) if s["type"] in ("saddle-node", "fold")]
@@ -414,7 +425,8 @@ def _period_checks(folder: Path, hopf, grid: int, degree: int) -> tuple[list[dic
     if fixed is not None:
         comparisons.append(_compare("chi = 0.2: exponent p, lam_c at the fold of fig8's branch "
                                     f"({fixed['lambda_c']:.5g})", PAPER_PERIOD_EXPONENT,
-                                    fixed["p"], located=True))  # fmt: skip
+                                    fixed["p"], located=True, key="chi = 0.2: period exponent "
+                                    "p, lam_c at fig8's fold"))  # fmt: skip
     elif folds and not located:
         notes.append(f"fig8's fold ({folds[0]['lam']:.5g}) is an estimate from the square-root "
                      "law, not located: no fit with lam_c there")  # fmt: skip
@@ -525,7 +537,8 @@ def _fig8(folder: Path, quick: bool, options: dict) -> dict:
         if "free" in fit:  # the fold fitted too: independent of where the branch put it
             comparisons.append(_check(
                 f"the same exponent with the fold fitted too (at {fit['free']['critical']:.6g})",
-                "saddle-node normal form", 0.5, fit["free"]["exponent"]))  # fmt: skip
+                "saddle-node normal form", 0.5, fit["free"]["exponent"],
+                key="the same exponent with the fold fitted too"))  # fmt: skip
     for form, what in (("spec", "SPEC §9's operator singular"),
                        ("curvature", "the branch's turning point")):  # fmt: skip
         fold = data.get("located_folds", {}).get(form)
@@ -543,7 +556,8 @@ def _fig8(folder: Path, quick: bool, options: dict) -> dict:
             f"{len(near)} points)", "saddle-node normal form", 0.5, e["exponent"],
             located=fold["located"],
             note=("the fold's system did not converge" if not fold["located"] else
-                  offset if turning else ""), compared=not turning))  # fmt: skip
+                  offset if turning else ""), compared=not turning,
+            key=f"exponent of omega_I -> 0 at the fold solved for ({what})"))  # fmt: skip
     specials = "; ".join(f"{sp['type']} at lam = {sp['lam']:.6g} ("
                          + ("located" if sp.get("located", True) else
                             "an estimate from the square-root law, not located") + ")"
@@ -634,9 +648,10 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
     if paper is not None:
         note = _grid_note(grid, degree)
         comparisons += [_compare(f"fitted omega_R against Table 1, N = {degree}", paper[0],
-                                 fit.omega_R, note=note),
+                                 fit.omega_R, note=note, key="fitted omega_R against Table 1"),
                         _compare(f"fitted omega_I against Table 1, N = {degree}", paper[1],
-                                 fit.omega_I, note=note)]  # fmt: skip
+                                 fit.omega_I, note=note,
+                                 key="fitted omega_I against Table 1")]  # fmt: skip
     return {"figures": [figure], "tables": [_write_csv(folder / "fig9.csv", rows)],
             "comparisons": comparisons,
             "note": "the fit of psi(t) against our stability analysis (both ours), and against "
@@ -1131,9 +1146,12 @@ def _comparison_tables(comps: list[dict]) -> list[str]:
     return out
 
 
-def _summary(outdir: Path, records: list[tuple[Item, dict | None, str]]) -> list[str]:
+def _summary(outdir: Path, records: list[tuple[Item, dict | None, str]],
+             stored: dict | None = None) -> list[str]:
     """The top of the page: the table of contents (every item with its status and its
-    comparisons) and the agreement with the paper (every value of SPEC §14 compared)."""
+    comparisons) and the agreement with the paper (every value of SPEC §14 compared).
+    ``stored``: the full report's values shipped with the package
+    (:func:`vesicle.workflows.validation.stored_values`), shown beside a quick report's own."""
     e = html.escape
     parts = ['<h2 id="contents">Contents</h2><table><tr><th>item</th><th>what</th>'
              "<th>status</th><th>compared with the paper</th></tr>"]  # fmt: skip
@@ -1159,8 +1177,14 @@ def _summary(outdir: Path, records: list[tuple[Item, dict | None, str]]) -> list
                  "the difference, and for a special point (a fold, a Hopf point, a change of "
                  "type) whether ours was located; an estimate is listed but not compared. The "
                  "note says where the resolution is not the paper's.</p>")  # fmt: skip
+    if stored:
+        parts.append("<p>The column <i>full report</i> is the value the full report (N = 8) "
+                     "computed for the same comparison, stored with this version of the package "
+                     f"({e(stored.get('vesicle_version', '?'))}); it is not recomputed here, "
+                     "and an estimate there is marked so.</p>")  # fmt: skip
     parts.append("<table><tr><th>item</th><th>quantity</th><th>paper</th><th>vesicle</th>"
-                 "<th>difference</th><th>relative</th><th>located</th><th>note</th></tr>")
+                 + ("<th>full report (stored)</th>" if stored else "")
+                 + "<th>difference</th><th>relative</th><th>located</th><th>note</th></tr>")
     for item, c in agreement:
         diff = _difference_cell(c, c["paper"])
         relative = ""
@@ -1168,9 +1192,16 @@ def _summary(outdir: Path, records: list[tuple[Item, dict | None, str]]) -> list
                 and not c.get("bound")):  # fmt: skip
             relative = f"{(c['ours'] - c['paper']) / abs(c['paper']):+.2%}"
         ours = "—" if c.get("ours") is None else f"{c['ours']:.6g}"
+        full = ""
+        if stored:
+            value = (stored.get(item.key, {}).get("values", {})
+                     .get(c.get("key", c["quantity"])))  # fmt: skip
+            full = "<td>—</td>" if not value or value.get("ours") is None else (
+                f"<td>{value['ours']:.6g}"
+                + (" (estimate)" if value.get("located") is False else "") + "</td>")
         parts.append(f'<tr><td><a href="#{e(item.key)}">{e(item.title)}</a></td>'
                      f"<td>{e(c['quantity'])}</td><td>{c['paper']:.6g}</td><td>{ours}</td>"
-                     f"<td>{e(diff)}</td><td>{relative}</td><td>{_located_cell(c)}</td>"
+                     f"{full}<td>{e(diff)}</td><td>{relative}</td><td>{_located_cell(c)}</td>"
                      f"<td>{e(c.get('note', ''))}</td></tr>")  # fmt: skip
     parts.append("</table>")
     return parts
@@ -1255,7 +1286,12 @@ def write_index(outdir: Path, items: list[Item], quick: bool) -> Path:
         if params:
             text = e(json.dumps(params, indent=1, default=str))
             body.append(f"<details><summary>parameters</summary><pre>{text}</pre></details>")
-    parts += _summary(outdir, records)
+    if quick:  # the full report's values, as shipped with the package
+        from vesicle.workflows.validation import stored_values
+
+        parts += _summary(outdir, records, stored_values())
+    else:
+        parts += _summary(outdir, records)
     parts += body
     parts.append("</body></html>")
     page = outdir / "index.html"
