@@ -105,6 +105,7 @@ def test_the_quick_page_shows_the_stored_full_values(reports, tmp_path, monkeypa
     html = paper.write_index(quick, paper.ITEMS, quick=True).read_text()
     assert "full report (stored)" in html
     assert "<td>8.45263</td>" in html  # beside the quick report's 8.33
+    assert "Resolution: N = 4, 12×24." in html  # each item states its own resolution
 
 
 def test_reports_of_the_wrong_kind_are_refused(reports, tmp_path):

@@ -203,6 +203,7 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
 
     def compute(folder: Path, quick: bool, options: dict, extra: list | None = None) -> dict:
         from vesicle.workflows.study import run_studies
+        from vesicle.workflows.sweep import read_sweep_config
 
         out = {"figures": [], "tables": [], "comparisons": [], "parameters": {}}
         stores = []
@@ -215,6 +216,8 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
             out["figures"].append(r["figure"])
             out["tables"].append(r["table"])
             out["parameters"][name] = r["config"]
+            d = read_sweep_config(r["config"]).discretisation
+            out.setdefault("resolutions", {})[name] = f"N = {d.degree}, {d.grid}×{2 * d.grid}"
             if r["status"]["failed"]:
                 failed = r["status"]["failed"]
                 out.setdefault("failures", []).append(f"{name}: {failed} point(s) failed")
@@ -1035,6 +1038,17 @@ def _record_report(outdir: Path, todo: list[Item], quick: bool, concurrent: bool
     write_text_atomically(path, json.dumps({"calls": history}, indent=1))
 
 
+def _resolution_text(record: dict) -> str:
+    """An item's resolution as its record states it: each study's (``resolutions``), or the
+    degree and grid of its parameters; "" where the record states neither."""
+    if record.get("resolutions"):
+        return "; ".join(f"{k}: {v}" for k, v in record["resolutions"].items())
+    p = record.get("parameters") or {}
+    if isinstance(p, dict) and p.get("degree") is not None and p.get("grid") is not None:
+        return f"N = {p['degree']}, {p['grid']}×{2 * int(p['grid'])}"
+    return ""
+
+
 def _rel(path: str, outdir: Path) -> str:
     try:
         return str(Path(path).resolve().relative_to(outdir.resolve()))
@@ -1253,9 +1267,11 @@ def write_index(outdir: Path, items: list[Item], quick: bool) -> Path:
         records.append((item, content, content["status"]))
         if content["status"] == "error":
             body.append(f'<p class="error">Failed: {e(content["error"])}</p>')
+        resolution = _resolution_text(content)
         body.append(f"<p>Wall time {content['seconds']:.0f} s"
                     f"{' (quick)' if content.get('quick') else ''}. "
-                    '<a class="top" href="#contents">(contents)</a></p>')  # fmt: skip
+                    + (f"Resolution: {e(resolution)}. " if resolution else "")
+                    + '<a class="top" href="#contents">(contents)</a></p>')  # fmt: skip
         for fig in content.get("figures", []):
             rel = _rel(fig, outdir)
             body.append(f'<p><img src="{e(rel)}" alt="{e(item.title)}: {e(Path(rel).name)}">'

@@ -65,12 +65,10 @@ def collect(outdir: str | Path) -> dict:
 
 
 def _resolution(record: dict) -> str:
-    """The item's resolution as its record states it (N on grid), or "" where it does not."""
-    p = record.get("parameters") or {}
-    degree, grid = p.get("degree"), p.get("grid")
-    if degree is None or grid is None:
-        return ""
-    return f"N = {degree}, {grid}×{2 * int(grid)}"
+    """The item's resolution as its record states it (N on the grid), or "" where it does not."""
+    from vesicle.workflows.paper import _resolution_text
+
+    return _resolution_text(record)
 
 
 def rows(full: dict, quick: dict | None = None) -> list[dict]:
