@@ -83,12 +83,13 @@ def test_tilted_starts_item_writes_its_orbits_and_figures(tmp_path):
     """Figure 23's item on one short tilted run (N = 4, 12x24, to t = 0.5): the CSV row with
     its orbit class, both axes figures, and a second call that only reads the run file."""
     item = next(i for i in ITEMS if i.key == "fig23")
-    options = {"grid": 12, "t_end": 0.5, "tilted": [(11.0, 54.0)]}
+    options = {"grid": 12, "t_end": 0.5, "tilted": [(11.0, 54.0)], "snapshot": []}
     page = build_report(tmp_path, quick=True, items=[item], options=options)
     text = page.read_text()
     assert "Figures 23, 24" in text
     rows = (tmp_path / "fig23" / "fig23.csv").read_text().splitlines()
     assert len(rows) == 2 and rows[0].startswith("lam,tilt_deg,tilt_over_pi,regime,orbit")
+    assert rows[1].endswith(",tilted spheroid")
     assert rows[1].startswith("11.0,54.0,0.3,out-of-plane,")
     for name in ("axes_sphere", "axes_projection"):
         assert (tmp_path / "fig23" / f"lam11_tilt54_N4_12_{name}.png").is_file()
@@ -108,7 +109,8 @@ def test_tilted_starts_item_measures_tumbling_against_tilt(tmp_path):
     degrees, to t = 0.3): its row starts at the tilt given (9 degrees = 0.15708 rad: the start
     is the spheroid turned about its short in-plane axis) and carries a growth rate."""
     item = next(i for i in ITEMS if i.key == "fig23")
-    options = {"grid": 12, "tilted": [], "tilted_tu": [(20.0, 8.0, 9.0)], "tumbling_t_end": 0.3}
+    options = {"grid": 12, "tilted": [], "tilted_tu": [(20.0, 8.0, 9.0)], "tumbling_t_end": 0.3,
+               "snapshot": []}  # fmt: skip
     build_report(tmp_path, quick=True, items=[item], options=options)
     with open(tmp_path / "fig23" / "fig23_tumbling_tilt.csv") as f:
         rows = list(csv.DictReader(f))
@@ -294,3 +296,36 @@ def test_fig8_compares_the_exponent_only_at_the_fold_of_the_operator_it_fits(tmp
     assert turning["ours"] > spec["ours"] + 0.01  # biased by the offset of its zero
     first = out["comparisons"][0]  # the branch's own special point: the turning point too
     assert "turning point" in first["quantity"] and not first["compared"]
+
+
+def test_tilted_starts_from_shapes_of_the_in_plane_run(tmp_path, monkeypatch):
+    """SPEC §13's start: the in-plane run at the same (v, chi, lam) first, then a tilted run from
+    its shape at each phase of its last psi period.  Short runs (N = 4, 12x24): the in-plane run
+    to t = 0.4 has no period yet, so every phase starts from its last shape; the tilted run's
+    first long axis is that shape's turned out of the plane by the tilt (54 degrees: |a_y| =
+    sin 54 = 0.809, to the 1e-2 of the degree-4 projection); the phase arithmetic is checked on
+    the same file with a period put in (0.2: phase 0.5 of the last period is t_end - 0.1)."""
+    from vesicle.geometry.diagnostics import diagnose
+    from vesicle.workflows import paper
+
+    item = next(i for i in ITEMS if i.key == "fig23")
+    options = {"grid": 12, "t_end": 0.2, "tilted": [], "snapshot": [(11.0, 54.0)],
+               "phases": [0.0, 0.5], "snapshot_t": 0.4}  # fmt: skip
+    build_report(tmp_path, quick=True, items=[item], options=options)
+    with open(tmp_path / "fig23" / "fig23.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["start"] for r in rows] == ["in-plane shape at t = 0.4 (phase 0)",
+                                          "in-plane shape at t = 0.4 (phase 0.5)"]  # fmt: skip
+    source = tmp_path / "fig23" / "inplane_lam11_N4_12.h5"
+    in_plane = read_run(source)
+    assert in_plane.series["t"][-1] == pytest.approx(0.4)
+    start = diagnose(in_plane.shape(-1)).axes[0]
+    assert abs(start[1]) < 1e-9  # in the shear plane
+    tilted = read_run(tmp_path / "fig23" / "snap_lam11_tilt54_phase0.000_N4_12.h5")
+    assert abs(diagnose(tilted.shape(0)).axes[0][1]) == pytest.approx(np.sin(np.radians(54)),
+                                                                       abs=1e-2)  # fmt: skip
+    monkeypatch.setattr("vesicle.geometry.diagnostics.summarize",
+                        lambda run: {"period": 0.2})  # fmt: skip
+    _, t_half = paper._snapshot_start(str(source), 0.5)
+    _, t_zero = paper._snapshot_start(str(source), 0.0)
+    assert t_half == pytest.approx(0.3, abs=0.026) and t_zero == pytest.approx(0.2, abs=0.026)

@@ -682,6 +682,71 @@ TILTED_TU = [(20.0, 0.2, 1.0), (20.0, 8.0, 1.0)]
 TILTED_TU_QUICK: list[tuple[float, float, float]] = []
 
 
+#: SPEC §13's start: an instantaneous shape of the in-plane motion at the same (v, chi, lam),
+#: rotated out of the shear plane.  (lam, tilt in degrees) at v = 0.95, chi = 4: the in-plane
+#: run first (from the spheroid, to ``SNAPSHOT_T`` or its settled periods), then one tilted run
+#: from its shape at each phase of :data:`PHASES` (fractions of its last psi period, counted
+#: from the start of that period), beside the tilted-spheroid starts of :data:`TILTED`.
+SNAPSHOT = [(11.0, 54.0), (9.0, 54.0)]
+#: ``--quick``: none yet (an in-plane run and two phase runs at lam = 11 would add to the quick
+#: report's measured cost by an amount not measured; ``options["snapshot"]`` asks for them).
+SNAPSHOT_QUICK: list[tuple[float, float]] = []
+PHASES = (0.0, 1.0 / 3.0, 2.0 / 3.0)
+PHASES_QUICK = (0.0, 0.5)
+#: The in-plane run's end (it stops earlier once 3 periods have settled).
+SNAPSHOT_T = 30.0
+
+
+def _inplane_run(path: str, params) -> dict:
+    """The in-plane run the snapshot starts come from: run until its psi periods settle
+    (``params.periods``) or ``params.t_end``; a file that stopped so is not run again."""
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.geometry.diagnostics import summarize
+    from vesicle.io.files import read_run
+
+    run = read_run(path) if Path(path).exists() else None
+    if run is not None and run.checkpoint is not None:
+        s = summarize(run)
+        if (s["stopped"] in ("periods", "steady")  # a run cut short has stopped = ""
+                or float(run.checkpoint["t"]) >= params.t_end - 1e-9):  # fmt: skip
+            return s
+    else:
+        run = None
+    return summarize(simulate(params, out=path, resume=run))
+
+
+def _snapshot_start(source: str, phase: float) -> tuple:
+    """The shape of the in-plane run ``source`` at ``phase`` of its last psi period (its last
+    saved shape when it has no period: TT) and the time it was saved at."""
+    from vesicle.geometry.diagnostics import summarize
+    from vesicle.io.files import read_run
+
+    run = read_run(source)
+    t = np.asarray(run.series["t"])
+    period = summarize(run)["period"]
+    if not period:
+        return run.shape(-1), float(t[-1])
+    target = t[-1] - period + phase * period
+    index = int(np.argmin(np.abs(t - target)))
+    return run.shape(index), float(t[index])
+
+
+def _snapshot_run(path: str, params, source: str, phase: float) -> dict:
+    """A tilted run (``params.tilt``) from the in-plane run ``source`` at ``phase``; resumed from
+    its own file when cut short.  Its summary, with the start's time and phase."""
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.geometry.diagnostics import summarize
+    from vesicle.io.files import read_run
+
+    shape, t_start = _snapshot_start(source, phase)
+    run = read_run(path) if Path(path).exists() else None
+    if run is not None and run.checkpoint is None:
+        run = None
+    if run is None or float(run.checkpoint["t"]) < params.t_end - 1e-9:
+        run = simulate(params, out=path, start=None if run is not None else shape, resume=run)
+    return {**summarize(run), "start_t": t_start, "phase": phase}
+
+
 def _tilted_run(path: str, params) -> dict:
     """One tilted start run to ``params.t_end`` (resumed from its file when cut short or asked to
     go further); returns its summary."""
@@ -727,6 +792,29 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                              rtol=1e-3, save_fields=False))
               for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
     summaries = _map(options, _tilted_run, calls)
+    # SPEC §13's starts: shapes of the in-plane run rotated out of the plane, at several phases
+    snap_cases = options.get("snapshot", SNAPSHOT_QUICK if quick else SNAPSHOT)
+    phases = tuple(options.get("phases", PHASES_QUICK if quick else PHASES))
+    in_plane = [(str(folder / f"inplane_lam{lam:g}_N{degree}_{grid}.h5"),
+                 RunParameters(Physics(v=0.95, lam=lam, chi=4.0), Discretisation(grid, degree),
+                               t_end=float(options.get("snapshot_t", SNAPSHOT_T)),
+                               save_every=0.05, dt_max=0.25, integrator="ros34pw2", rtol=1e-3,
+                               periods=3, save_fields=False))
+                for lam, _ in snap_cases]  # fmt: skip
+    _map(options, _inplane_run, in_plane)
+    snap_calls, snap_keys = [], []
+    for (lam, tilt), (source, _) in zip(snap_cases, in_plane, strict=True):
+        for phase in phases:
+            name = f"snap_lam{lam:g}_tilt{tilt:g}_phase{phase:.3f}_N{degree}_{grid}"
+            snap_calls.append((str(folder / f"{name}.h5"),
+                               RunParameters(Physics(v=0.95, lam=lam, chi=4.0),
+                                             Discretisation(grid, degree), t_end=t_end,
+                                             save_every=0.05, dt_max=0.25, tilt=tilt,
+                                             integrator="ros34pw2", rtol=1e-3,
+                                             save_fields=False),
+                               source, phase))  # fmt: skip
+            snap_keys.append((lam, tilt, phase, name))
+    snap_summaries = _map(options, _snapshot_run, snap_calls)
     rows, figures = [], []
     for (lam, tilt, _), s in zip(cases, summaries[: len(cases)], strict=True):
         orbit = s.get("orbit") or {}
@@ -735,7 +823,27 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                      "orbit_period": orbit.get("period"), "psi_period": s["period"],
                      "detail": orbit.get("detail", s["regime_detail"]),
                      "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+    for (lam, tilt, phase, _), s in zip(snap_keys, snap_summaries, strict=True):
+        orbit = s.get("orbit") or {}
+        rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
+                     "start": f"in-plane shape at t = {s['start_t']:.4g} (phase {phase:.3g})",
+                     "regime": s["regime"], "orbit": orbit.get("class"),
+                     "orbit_period": orbit.get("period"), "psi_period": s["period"],
+                     "detail": orbit.get("detail", s["regime_detail"]),
+                     "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+    for r in rows:
+        r.setdefault("start", "tilted spheroid")
     tables = [_write_csv(folder / "fig23.csv", rows)]
+    by_start = {}
+    for r in rows:
+        by_start.setdefault((r["lam"], r["tilt_deg"]), set()).add((r["start"], r["orbit"]))
+    phase_note = "; ".join(
+        f"lam = {lam:g}, {tilt:g} deg: " + (
+            f"one class ({next(iter({c for _, c in starts}))}) from every start"
+            if len({c for _, c in starts}) == 1 else
+            "the class depends on the start: " + ", ".join(f"{c} ({s})" for s, c in sorted(
+                starts, key=lambda x: x[0])))
+        for (lam, tilt), starts in by_start.items() if len(starts) > 1)  # fmt: skip
     tu_rows = []
     for (lam, chi, tilt), s in zip(tu_cases, summaries[len(cases) :], strict=True):
         o = s["out_of_plane"]
@@ -744,7 +852,7 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                         "angle_end": o["angle_end"], "rate": o["rate"],
                         "per_half_turn": o["per_half_turn"], "detail": o["detail"],
                         "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
-    for name in names + tu_names:
+    for name in names + tu_names + [k[3] for k in snap_keys]:
         run = read_run(folder / f"{name}.h5")
         figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
     if tu_rows:
@@ -753,11 +861,16 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
             "tumbling_tilt": tu_rows,
             "note": "orbit classes over the last half of each run: in-plane (then the psi regime "
                     "decides TR or TU), vorticity-TT, precession about y, figure-8 about x; "
+                    "starts: the tilted spheroid, and (SPEC §13) shapes of the in-plane run at "
+                    "several phases of its last period, rotated out of the plane by the same "
+                    "tilt" + (f" ({phase_note})" if phase_note else "") + "; "
                     "tumbling against tilt (fig23_tumbling_tilt.csv): the out-of-plane angle's "
                     "growth per half turn of the in-plane TU",
             "parameters": {"v": 0.95, "chi": 4.0, "degree": degree, "grid": grid,
                            "t_end": t_end, "integrator": "ros34pw2", "rtol": 1e-3,
                            "cases": [list(c) for c in cases],
+                           "snapshot_cases": [list(c) for c in snap_cases],
+                           "phases": list(phases),
                            "tumbling_cases": [list(c) for c in tu_cases]}}  # fmt: skip
 
 
