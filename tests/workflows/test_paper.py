@@ -329,3 +329,21 @@ def test_tilted_starts_from_shapes_of_the_in_plane_run(tmp_path, monkeypatch):
     _, t_half = paper._snapshot_start(str(source), 0.5)
     _, t_zero = paper._snapshot_start(str(source), 0.0)
     assert t_half == pytest.approx(0.3, abs=0.026) and t_zero == pytest.approx(0.2, abs=0.026)
+
+
+def test_each_item_says_its_expected_cost_and_then_its_wall_time(tmp_path):
+    """Before an item starts, its expected cost (a measurement, or that there is none at this
+    resolution); when it ends, its wall time beside it."""
+    from vesicle.workflows.paper import expected_cost
+
+    items = {i.key: i for i in ITEMS}
+    assert expected_cost(items["fig8"], quick=False).startswith("about 20 min (2026-12-06")
+    assert expected_cost(items["fig9"], quick=False) == "not measured at the full resolution yet"
+    assert expected_cost(items["fig23"], quick=True).startswith("about 430 CPU s (measured")
+    said = []
+    options = {"grid": 12, "t_end": 0.2, "tilted": [(11.0, 54.0)], "snapshot": []}
+    build_report(tmp_path, quick=True, items=[items["fig23"]], options=options,
+                 progress=said.append)  # fmt: skip
+    assert said[0] == f"fig23: expected {expected_cost(items['fig23'], True)}"
+    assert any(s.startswith("Figures 23, 24: done in ") and "(expected about 430 CPU s" in s
+               for s in said)  # fmt: skip

@@ -58,6 +58,20 @@ class Item:
     missing: str = ""  # why it cannot be computed yet (compute is None)
     uses: tuple[str, ...] = ()  # items whose output it also draws (redrawn after them)
     cost: int = 0  # the quick report's measured CPU seconds: the longest start first
+    #: the full report's measured wall seconds on the 2-core machine and where they were
+    #: measured (None: not measured yet; printed as such before the item starts)
+    full_cost: tuple[int, str] | None = None
+
+
+def expected_cost(item: Item, quick: bool) -> str:
+    """What an item is expected to cost, from a measurement, or that it has none."""
+    if quick:
+        return (f"about {item.cost} CPU s (measured, the quick report of 2026-12-03)"
+                if item.cost else "not measured")  # fmt: skip
+    if item.full_cost is None:
+        return "not measured at the full resolution yet"
+    seconds, where = item.full_cost
+    return f"about {seconds / 60:.0f} min ({where})"
 
 
 #: The resolution (grid n_theta, degree N) of the full and of the quick report.  At N = 4 the
@@ -896,7 +910,7 @@ ITEMS: list[Item] = [
          _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi=(1.0, 3.0, 10.0),
                        quick_vs=[0.95, 0.90]), cost=100),
     Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8,
-         cost=120),
+         cost=120, full_cost=(1188, "2026-12-06, vesicle paper --only fig8, one worker")),
     Item("fig9", "Figure 9", "relaxation of psi from a perturbed start against the stability",
          _fig9, cost=200),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
@@ -968,6 +982,9 @@ def build_report(
             and (redo or not (outdir / item.key / "item.json").exists())]  # fmt: skip
     if concurrent is None:
         concurrent = len(todo) > 1
+    if progress is not None:
+        for item in todo:
+            progress(f"{item.key}: expected {expected_cost(item, quick)}")
     t0 = time.perf_counter()
     if concurrent and todo:
         _compute_concurrently(outdir, todo, quick, options, progress)
@@ -1048,7 +1065,8 @@ def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
     write_text_atomically(outdir / item.key / "item.json",
                           json.dumps(content, indent=1, default=str))  # fmt: skip
     if progress is not None:
-        progress(f"{item.title}: {content['status']} in {content['seconds']:.0f} s")
+        progress(f"{item.title}: {content['status']} in {content['seconds']:.0f} s "
+                 f"(expected {expected_cost(item, quick)})")
     return content
 
 
