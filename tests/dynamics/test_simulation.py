@@ -1,5 +1,7 @@
 """Time-dependent runs: restart, interruption, relaxation, drift control, diagnostics."""
 
+import json
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -449,3 +451,15 @@ def test_a_run_stopped_on_settled_periods_is_classified_from_the_whole_run():
     assert tr.period == pytest.approx(2.388, rel=1e-3)
     damped = 0.05 + 0.1 * np.exp(-np.log(1 / 0.7) * t / 2.388) * np.sin(phase)
     assert classify_regime(t, damped).name == "TT"
+
+
+def test_a_large_sustained_swing_is_tr_not_a_damped_approach():
+    """A TR run at N = 8 (v = 0.95, lam = 10.5, chi = 8, 24x48; tests/data holds its psi(t) as
+    saved): psi swings by 0.9406, 0.9452, 0.9471, 0.9483 between its minima, period 1.498, a
+    sustained oscillation by inspection.  Its waveform is far from a sinusoid, and a damped
+    sinusoid fitted to its tail reads a decay x0.75 (rms error 0.17 of its 0.50 amplitude):
+    the classifier called it TT before it read the rate from the swings."""
+    data = json.loads((Path(__file__).parents[1] / "data" / "tr_psi_n8_24x48.json").read_text())
+    r = classify_regime(np.array(data["t"]), np.array(data["psi"]))
+    assert r.name == "TR" and "sustained" in r.detail
+    assert r.period == pytest.approx(1.4976, abs=1e-3)
