@@ -584,6 +584,12 @@ def _fold_estimate(tracer: _Tracer) -> SpecialPoint | None:
     return SpecialPoint("fold", tracer.parameter, float(fold), 0.0, False, (x[-1], fold))
 
 
+#: Largest difference of coefficients (relative to the largest) between the state continued
+#: from an easier point and the one Newton found directly for the two to be the same state
+#: (both solved to the Newton tolerance, 1e-8 in the residual).
+SAME_STATE = 1e-5
+
+
 def reach(
     physics: Physics,
     discretisation: Discretisation | None = None,
@@ -602,12 +608,15 @@ def reach(
     (Newton from the tilted spheroid converges there), and for ``v`` below :data:`EASY_V` also
     ``v = EASY_V, lam = 1, chi = 1``; the state is then continued in ``v``, ``lam`` and ``chi``
     to the target, ``legs`` geometric steps each (halved where a step fails).
-    A state that Newton finds from the default start with a real unstable mode is another
+    A state that Newton finds from the default start with an unstable mode may be another
     branch's (the saddle half of a fold, or a state Newton wandered to: at lam = 3.7, chi = 1,
-    N = 4 it lands on psi = -0.60 with a growth rate 3.7): the continued state replaces it;
-    with ``verify_unstable`` any unstable state is checked so (the first evaluation of a
-    critical-lambda search, which must not start on another branch).  An easier start is used
-    only if it is stable, except the last, ``lam = 1, chi = 1``.
+    N = 4 it lands on psi = -0.60 with a growth rate 3.7; at lam = 2, chi = 0.2, N = 8 on one
+    with a single unstable pair far below lambda_c): every unstable one is checked by
+    continuation from an easier point, and the continued state replaces it; where the two are
+    the same state (TT past its own loss of stability) the direct one is kept, its ``start``
+    "direct, checked by continuation".  (``verify_unstable``, once the option that asked for
+    this check, is now always on.)  An easier start is used only if it is stable, except the
+    last, ``lam = 1, chi = 1``.
     Every detour is logged and reported to ``progress`` (``{"continuation": text}``); if the
     target cannot be reached the ``NewtonError`` says how far it got.  The result's ``start``
     says how it was reached (``"direct"``, ``"continued from ..."``); a state from the default
@@ -640,11 +649,14 @@ def reach(
         spectrum = stability(direct)
         w_r, w_i = spectrum.most_unstable
         unstable = int(np.sum(spectrum.omega[:, 1] > 0))
-        # more than one unstable pair: not a TT state just past its own Hopf point (one pair
-        # crosses there) but one Newton wandered to (lam = 4, chi = 10, N = 4: psi = -0.338
-        # with 7 unstable modes, the leading one (15.9, 9.6))
-        suspect = w_r <= REAL_TOLERANCE or verify_unstable or unstable > 2
-        if not (w_i > 0 and suspect):
+        # every unstable state is checked by continuation from an easier point, which reaches
+        # it again where it is the TT state past its own loss of stability.  Newton from the
+        # default start wanders: to the saddle half of a fold (a real mode), to a state with
+        # several unstable modes (lam = 4, chi = 10, N = 4: psi = -0.338, 7 unstable modes,
+        # the leading one (15.9, 9.6)), and to one with a single unstable pair far below
+        # lambda_c (lam = 2, chi = 0.2, N = 8 on 32x64: psi = -0.490, axes 2.40, 2.06, 1.44,
+        # omega = (0.025, +0.340), where the TT state is stable: lambda_c is about 7.6 there)
+        if not w_i > 0:
             return direct
         # a real unstable mode: possibly the saddle half of a fold (SPEC §16); the state
         # continued from chi = 1 is the one on the branch that is stable below the fold
@@ -703,6 +715,11 @@ def reach(
             raise NewtonError(f"continuation towards {name} = {there:g} stopped: {leg.stopped}")
         start = leg.points[-1].steady
         say(f"continued in {name} to {there:g}")
+    if direct is not None and start.a.shape == direct.a.shape and (
+            np.max(np.abs(start.a - direct.a)) <= SAME_STATE * max(1.0, np.max(np.abs(direct.a)))):
+        # the continued state is the direct one: TT past its own loss of stability
+        say("the continued state is the one Newton found from the default start: kept")
+        return dataclasses.replace(direct, start="direct, checked by continuation")
     return dataclasses.replace(start, start=origin)
 
 
