@@ -230,10 +230,10 @@ def classify_regime(
     than ``steady_tol`` over the last ``tail`` fraction of the run; TR when psi oscillates there
     with at least two minima and does not decay (its amplitude falling by less than 20 % over the
     tail, read from the swings between consecutive minima where the tail holds two or more, else
-    from a fitted damped sinusoid; a damped oscillation is a TT approach).  The period is the mean time between
-    consecutive minima of psi (TR, each refined by :func:`refined_minima`) or between
-    the passages of psi through -pi/2 (TU, so a half turn; interpolated between the samples around
-    each jump): accurate well below the save interval.
+    from a fitted damped sinusoid; a damped oscillation is a TT approach).  The period is the
+    mean time between consecutive minima of psi (TR, each refined by :func:`refined_minima`) or
+    between the passages of psi through -pi/2 (TU, so a half turn; interpolated between the
+    samples around each jump): accurate well below the save interval.
     """
     t, psi = np.asarray(t, float), np.asarray(psi, float)
     if t.size < 5:
