@@ -96,3 +96,12 @@ def test_legacy_keywords_map_onto_the_object_and_warn():
 def test_execution_serial_gives_no_executor():
     with vs.Execution().executor() as pool:
         assert pool is None
+
+
+def test_a_loose_none_that_means_something_is_kept():
+    """``critical_lambda(..., coarse=None)`` meant "no coarse search", not the default "auto";
+    ``lam0=None`` meant the default, so it alone is no loose keyword at all."""
+    with pytest.warns(vs.VesicleDeprecationWarning, match="coarse"):
+        search = legacy_settings("f", vs.CriticalSearch, None, {"coarse": None, "lam0": None})
+    assert search == vs.CriticalSearch(coarse=None) and search.coarse is None
+    assert legacy_settings("f", vs.CriticalSearch, None, {"lam0": None}) is None

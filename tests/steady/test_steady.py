@@ -421,7 +421,8 @@ def test_the_former_loose_call_forms_warn_and_give_the_same_state_bit_for_bit(st
         c = vs.critical_lambda(0.95, 1.0, degree=4, grid=16, coarse=None, lam0=8.3, xtol=0.05)
     assert c.lambda_c == pytest.approx(8.337, abs=0.05)  # test_critical_lambda_low_resolution
     said = " ".join(str(w.message) for w in caught)
-    assert "loose v, chi, degree, grid" in said and "CriticalSearch(lam0=..., xtol=...)" in said
+    assert "loose v, chi, degree, grid" in said
+    assert "CriticalSearch(coarse=..., lam0=..., xtol=...)" in said  # coarse=None kept: off
 
 
 def test_numpy_backend_gives_the_same_eigenvalues(steady):

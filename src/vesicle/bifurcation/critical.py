@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass, field
 
@@ -30,9 +29,9 @@ from vesicle.model.settings import (
     CriticalSearch,
     NewtonSettings,
     StabilitySettings,
-    VesicleDeprecationWarning,
     legacy_settings,
     refuse_unknown,
+    warn_loose,
 )
 from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
@@ -115,9 +114,7 @@ def _critical_objects(physics, discretisation, legacy: dict) -> tuple[Physics, D
         physics, discretisation = Physics(v=v, chi=chi), None
         loose = {"v": v, "chi": chi, **loose}
     if loose:
-        warnings.warn(f"critical_lambda with loose {', '.join(loose)} is deprecated: pass "
-                      "Physics and Discretisation objects", VesicleDeprecationWarning,
-                      stacklevel=3)  # fmt: skip
+        warn_loose("critical_lambda", loose)
     if discretisation is None:
         discretisation = Discretisation(**sizes)
     return physics, discretisation

@@ -35,9 +35,9 @@ from vesicle.io.files import stamped, write_text_atomically
 from vesicle.model.parameters import Physics
 from vesicle.model.settings import (
     ContinuationSettings,
+    Execution,
     StabilitySettings,
 )
-from vesicle.parallel import executor
 from vesicle.ranges import parse_range
 from vesicle.solve.solver import SolverError
 from vesicle.steady.files import write_steady
@@ -48,10 +48,13 @@ from vesicle.workflows.config import read_config
 
 
 def _executor(workers: int, scheduler: str | None):
-    if workers < 1:
-        fail("--workers must be at least 1")
+    """The Jacobian columns' executor of ``--workers``/``--scheduler`` (:class:`Execution`)."""
+    try:
+        execution = Execution(workers=workers, scheduler=scheduler)
+    except ValueError as err:
+        fail(str(err).replace("Execution.workers", "--workers"))
     check_scheduler(scheduler, local=True)
-    return executor(workers, scheduler)
+    return execution.executor()
 
 
 _SCHEDULER = click.option(

@@ -43,6 +43,7 @@ __all__ = [
     "default_modes",
     "legacy_settings",
     "refuse_unknown",
+    "warn_loose",
 ]
 
 #: The TT branches: long axis in the shear plane, or along the vorticity axis (SPEC §13).
@@ -266,13 +267,15 @@ def legacy_settings(function: str, cls, given, legacy: dict, names: dict[str, st
 
     ``legacy``: the loose keywords (those of ``cls`` are removed from the dictionary); ``names``:
     former keyword -> field where they differ.  A keyword passed as ``None`` counts as not passed
-    (the default).  Loose keywords warn (:class:`VesicleDeprecationWarning`) and may not be
-    combined with the object.
+    (the default), except for a field where ``None`` is a value of its own other than the
+    default (``CriticalSearch.coarse``: no coarse search).  Loose keywords warn
+    (:class:`VesicleDeprecationWarning`) and may not be combined with the object.
     """
     names = names or {}
-    fields = {f.name for f in dataclasses.fields(cls)}
+    fields = {f.name: f for f in dataclasses.fields(cls)}
     used = {names.get(k, k): legacy.pop(k) for k in list(legacy) if names.get(k, k) in fields}
-    used = {k: x for k, x in used.items() if x is not None}
+    used = {k: x for k, x in used.items()
+            if x is not None or (fields[k].default is not None and "None" in str(fields[k].type))}
     if not used:
         return given
     if given is not None:
@@ -284,6 +287,18 @@ def legacy_settings(function: str, cls, given, legacy: dict, names: dict[str, st
         VesicleDeprecationWarning, stacklevel=3,
     )  # fmt: skip
     return cls(**used)
+
+
+def warn_loose(function: str, scalars: dict, stacklevel: int = 3) -> None:
+    """The deprecation warning of a driver called with loose physics or resolution scalars
+    (``v``, ``lam``, ``chi``, ``degree``, ``grid``) instead of the parameter objects."""
+    physics = [k for k in ("v", "lam", "chi") if k in scalars]
+    disc = [k for k in ("degree", "grid") if k in scalars]
+    what = " and ".join(x for x in (
+        f"Physics({', '.join(physics)})" if physics else "",
+        f"Discretisation({', '.join(disc)})" if disc else "") if x)  # fmt: skip
+    warnings.warn(f"{function} with loose {', '.join(scalars)} is deprecated: pass {what}",
+                  VesicleDeprecationWarning, stacklevel=stacklevel + 1)  # fmt: skip
 
 
 def refuse_unknown(function: str, legacy: dict) -> None:

@@ -19,7 +19,6 @@ from __future__ import annotations
 import dataclasses
 import logging
 import time
-import warnings
 from concurrent.futures import Executor
 from dataclasses import dataclass
 
@@ -36,9 +35,9 @@ from vesicle.model.settings import (
     UPDATES,
     NewtonSettings,
     StabilitySettings,
-    VesicleDeprecationWarning,
     legacy_settings,
     refuse_unknown,
+    warn_loose,
 )
 from vesicle.model.theory import misbah_tt_inclination
 from vesicle.solve.solver import SolverError
@@ -219,25 +218,15 @@ def _objects(physics, discretisation, loose: tuple, legacy: dict) -> tuple[Physi
         if discretisation is not None and ("degree" in scalars or "grid" in scalars):
             raise ValueError("give degree and grid in the Discretisation, not as keywords")
         if scalars:
-            _warn_loose("steady_tank_treading", scalars)
+            warn_loose("steady_tank_treading", scalars)
         return physics, discretisation or Discretisation(**scalars)
     v = physics if physics is not None else scalars.pop("v", None)
     lam = discretisation if discretisation is not None else scalars.pop("lam", None)
     chi = scalars.pop("chi", None)
     if v is None or lam is None or chi is None:
         raise TypeError("steady_tank_treading needs Physics (and Discretisation), or v, lam, chi")
-    _warn_loose("steady_tank_treading", {"v": v, "lam": lam, "chi": chi, **scalars})
+    warn_loose("steady_tank_treading", {"v": v, "lam": lam, "chi": chi, **scalars})
     return Physics(v=v, lam=lam, chi=chi), Discretisation(**scalars)
-
-
-def _warn_loose(function: str, scalars: dict) -> None:
-    physics = [k for k in ("v", "lam", "chi") if k in scalars]
-    disc = [k for k in ("degree", "grid") if k in scalars]
-    what = " and ".join(x for x in (
-        f"Physics({', '.join(physics)})" if physics else "",
-        f"Discretisation({', '.join(disc)})" if disc else "") if x)  # fmt: skip
-    warnings.warn(f"{function} with loose {', '.join(scalars)} is deprecated: pass {what}",
-                  VesicleDeprecationWarning, stacklevel=4)  # fmt: skip
 
 
 def _given(**values) -> dict:
