@@ -108,12 +108,16 @@ class Physics(_Frozen):
         The background flow ``u_inf = chi G x``: a name of :data:`vesicle.model.flows.FLOWS`
         (``"shear"``, ``"planar-extension"``, ``"rotation"``, ``"none"``), a
         :class:`LinearFlow`, a traceless 3x3 gradient, or ``{"name", "gradient"}``.
+    bq : float
+        Boussinesq number ``eta_m / (mu_out a)`` of the membrane's surface shear viscosity
+        (SPEC §17), finite and >= 0; 0 (the default) is the paper's inviscid membrane.
     """
 
     v: float = 0.95
     lam: float = 1.0
     chi: float = 1.0
     flow: LinearFlow = field(default_factory=LinearFlow.shear)
+    bq: float = 0.0
 
     def __post_init__(self) -> None:
         v = _number("Physics", "v", self.v)
@@ -123,6 +127,10 @@ class Physics(_Frozen):
         if lam <= 0.0:
             raise ValueError(f"viscosity ratio lam must be positive, got {lam}")
         chi = _number("Physics", "chi", self.chi)
+        bq = _number("Physics", "bq", self.bq)
+        if bq < 0.0:
+            raise ValueError(f"Boussinesq number bq must be >= 0, got {bq}")
+        object.__setattr__(self, "bq", bq)
         object.__setattr__(self, "v", v)
         object.__setattr__(self, "lam", lam)
         object.__setattr__(self, "chi", chi)
@@ -139,7 +147,17 @@ class Physics(_Frozen):
             "lam": self.lam,
             "chi": self.chi,
             "flow": {"name": self.flow.name, "gradient": [list(r) for r in self.flow.gradient]},
+            "bq": self.bq,
         }
+
+    @property
+    def key(self) -> str:
+        """Short content hash; an inviscid membrane (``bq = 0``) hashes as before ``bq``
+        existed, so the stores of earlier versions keep their keys."""
+        data = self.to_dict()
+        if data["bq"] == 0.0:
+            del data["bq"]
+        return stable_key({"type": type(self).__name__, **data})
 
 
 def _as_flow(flow: Any) -> LinearFlow:

@@ -114,7 +114,31 @@ class CoupledBlocks:
             K = (self._coefficient_vectors(u) @ A.T).reshape(u.shape)
             K += np.einsum("ikab,zbik->zaik", diag, u)
             top += self.alpha * u - self.c * K
+        if self.formulation.viscous:
+            top += self.apply_viscous(u)
         return top, self.constraint(u)
+
+    def apply_viscous(self, u: np.ndarray) -> np.ndarray:
+        """The membrane-viscosity block ``Bq N[V u] / 8 pi`` on velocities (B, 3, nt, np)."""
+        load = self._chunks(lambda v: self.formulation.viscous_load(self.shape, v), u)
+        return self.formulation.traction_velocity(self.single_layer(load))
+
+    def fields(self, vectors: np.ndarray) -> np.ndarray:
+        """Grid fields (B, 3, nt, np) of real coefficient vectors (B, 6 T): the inverse of
+        :meth:`_coefficient_vectors` on band-limited fields (the imaginary parts of ``m = 0``
+        are not fields' coefficients and are dropped)."""
+        tri = self.lp.quad.packed
+        n = self.shape.grid.n_theta
+        T = transform(n)
+        parts = vectors.reshape(vectors.shape[0], 3, 2, -1)
+
+        def synth(p):
+            c = np.zeros((p.shape[0], 3, n, n), dtype=complex)
+            c[..., tri[0], tri[1]] = p[:, :, 0] + 1j * p[:, :, 1]
+            c[..., 0].imag = 0.0
+            return T.synthesis(c)
+
+        return self._chunks(synth, parts)
 
     def tension(self, coef: np.ndarray) -> np.ndarray:
         """The tension field (nt, np) of band coordinates ``coef`` (P,)."""
@@ -189,7 +213,7 @@ class FactorisedSystem(CoupledBlocks):
         super().__init__(solver)
         shape = self.shape
         with blas_threads(self.workers):
-            if self.c != 0.0:
+            if not self.formulation.identity_uu:
                 self._factor_uu()
             self._factor_schur()
         self.seconds = time.perf_counter() - start
@@ -206,23 +230,45 @@ class FactorisedSystem(CoupledBlocks):
         return out.reshape(u.shape)
 
     def _factor_uu(self) -> None:
-        Kc, diag = self.lp.double_matrix
-        eye = np.eye(3)
-        minv = np.linalg.inv(self.alpha * eye - self.c * diag)  # (nt, np, 3, 3)
-        self._minv = np.ascontiguousarray(minv.transpose(2, 3, 0, 1)).reshape(3, 3, -1)
+        """``A_uu = M + L A`` with ``L = -c K_c + beta S_c Q`` (``beta = Bq / 8 pi``, ``S_c``
+        the single layer's matrix, ``Q`` the viscous load ``V`` between coefficient vectors):
+        Woodbury on the coefficient space, ``C = I + A M^-1 L`` (module notes)."""
         nt, nphi = self.shape.grid.shape
-        cols = np.ascontiguousarray(Kc.T).reshape(-1, 3, nt, nphi)  # (6T, 3, nt, np)
-        self._minv_kc = self._apply_minv(cols)  # M^-1 K_c, by columns
-        C = np.eye(cols.shape[0]) - self.c * self._coefficient_vectors(self._minv_kc).T
+        eye = np.eye(3)
+        if self.c != 0.0:
+            Kc, diag = self.lp.double_matrix
+            minv = np.linalg.inv(self.alpha * eye - self.c * diag)  # (nt, np, 3, 3)
+        else:
+            minv = np.broadcast_to(eye / self.alpha, (nt, nphi, 3, 3))
+        self._minv = np.ascontiguousarray(minv.transpose(2, 3, 0, 1)).reshape(3, 3, -1)
+        size = 6 * len(self.lp.quad.packed[0])
+        C = np.eye(size)
+        if self.c != 0.0:
+            cols = np.ascontiguousarray(Kc.T).reshape(-1, 3, nt, nphi)  # (6T, 3, nt, np)
+            self._minv_kc = self._apply_minv(cols)  # M^-1 K_c, by columns
+            C -= self.c * self._coefficient_vectors(self._minv_kc).T
+        if self.formulation.viscous:
+            self._beta = self.formulation.traction_velocity(self.formulation.bq)
+            unit = self.fields(np.eye(size))  # the fields of the unit coefficient vectors
+            load = self._chunks(lambda v: self.formulation.viscous_load(self.shape, v) /
+                                self.formulation.bq, unit)  # fmt: skip
+            self._q = self._coefficient_vectors(load).T  # (6T, 6T): V between coefficients
+            cols = np.ascontiguousarray(self.lp.single_matrix.T).reshape(-1, 3, nt, nphi)
+            self._minv_sc = self._apply_minv(cols)  # M^-1 S_c, by columns
+            C += self._beta * (self._coefficient_vectors(self._minv_sc).T @ self._q)
         self._lu = scipy.linalg.lu_factor(C, overwrite_a=True, check_finite=False)
 
     def solve_uu(self, b: np.ndarray) -> np.ndarray:
         """``A_uu^-1 b`` for (B, 3, nt, np)."""
-        if self.c == 0.0:
+        if self.formulation.identity_uu:
             return b / self.alpha
         y = self._apply_minv(b)
         z = scipy.linalg.lu_solve(self._lu, self._coefficient_vectors(y).T, check_finite=False)
-        return y + self.c * np.tensordot(z.T, self._minv_kc, axes=(1, 0))
+        if self.c != 0.0:
+            y = y + self.c * np.tensordot(z.T, self._minv_kc, axes=(1, 0))
+        if self.formulation.viscous:
+            y = y - self._beta * np.tensordot((self._q @ z).T, self._minv_sc, axes=(1, 0))
+        return y
 
     def _factor_schur(self) -> None:
         self._z = self.solve_uu(self.apply_us(self._functions))  # (P, 3, nt, np)

@@ -6,6 +6,9 @@ shape, to a tolerance tight enough that the difference of two solutions is clean
 solution ``(u, t)`` of the base shape is differentiated instead.  Writing the system as
 
     G(x; u, t) = A_uu(x) u + N(x)[f_B(x) + f_sigma(x, t)] / 8 pi - u_inf(x) = 0,
+
+(``A_uu(x) u`` holds the membrane's viscous load ``N(x)[f_eta(x, u)]/8 pi`` where ``Bq > 0``:
+its shape derivative at fixed ``u`` is taken with the other local loads),
     C(x; u)    = band(div_x u) = 0,
 
 a change ``delta x`` of the radius along the basis function ``phi_j`` moves the solution by
@@ -65,9 +68,12 @@ class Linearisation:
     sigma: np.ndarray  # the base tension
 
 
-def _local_terms(shape: Shape, u, t, flow, chi, degree, basis: RealBasis):
-    """Force, divergence, background flow and rate of change of ``shape`` at fixed (u, t)."""
+def _local_terms(shape: Shape, u, t, flow, chi, degree, basis: RealBasis, formulation):
+    """Force, divergence, background flow and rate of change of ``shape`` at fixed (u, t)
+    (the force with the membrane's viscous load of ``u`` where ``Bq > 0``)."""
     f = bending_force(shape) + tension_force(shape, t)
+    if formulation.viscous:
+        f = f + formulation.viscous_load(shape, u)
     div = shape.surface_divergence(u)
     u_inf = flow.velocity(shape.x, chi) if flow is not None else np.zeros_like(u)
     rate = basis.from_coefficients(rate_of_change(shape, u, degree))
@@ -126,7 +132,8 @@ def _columns(solver, blocks, basis, vectors, u, t, step, times, solve) -> np.nda
     for d in directions:
         for sign, out in ((1.0, plus), (-1.0, minus)):
             moved = Shape(shape.coefficients + sign * h * d, shape.grid)
-            out.append(_local_terms(moved, u, t, flow, params.chi, degree, basis))
+            out.append(_local_terms(moved, u, t, flow, params.chi, degree, basis,
+                                    solver.formulation))
     df, ddiv, du_inf, drate = (
         (np.array([p[i] for p in plus]) - np.array([m[i] for m in minus])) / (2.0 * h)
         for i in range(4)
@@ -135,6 +142,8 @@ def _columns(solver, blocks, basis, vectors, u, t, step, times, solve) -> np.nda
 
     clock = time.perf_counter()
     f0 = bending_force(shape) + tension_force(shape, t)
+    if solver.formulation.viscous:
+        f0 = f0 + solver.formulation.viscous_load(shape, u)
     double = u if params.lam != 1.0 else None
     dN, dK = solver.lp.shape_derivatives(directions, f0, double)
     times["layer_potentials"] = time.perf_counter() - clock

@@ -158,7 +158,7 @@ class VelocityTensionSolver:
         self.scale = np.sqrt(shape.grid.weights * shape.area_element)
         self.is_sphere = abs(shape.reduced_volume - 1.0) < SPHERE_TOLERANCE
         self._bending = None
-        symbol = schur_symbol(shape.grid.max_degree, params.lam)
+        symbol = schur_symbol(shape.grid.max_degree, params.lam, params.bq)
         symbol[0] = symbol[1]  # the uniform mode: any positive scale
         self._symbol = symbol
         self.tension_degree = (
@@ -177,7 +177,7 @@ class VelocityTensionSolver:
         return self._bending
 
     def A_uu(self, u: np.ndarray) -> np.ndarray:
-        return self.formulation.A_uu(u, self.lp.double_layer)
+        return self.formulation.A_uu(u, self.lp.double_layer, self.lp.single_layer, self.shape)
 
     def A_us(self, sigma: np.ndarray) -> np.ndarray:
         return self.formulation.traction_velocity(
@@ -198,9 +198,8 @@ class VelocityTensionSolver:
 
     # ---------------------------------------------------------------- solves
     def solve_uu(self, rhs: np.ndarray, counter: _Counter | None = None) -> tuple[np.ndarray, bool]:
-        """``A_uu^{-1} rhs`` by GMRES (exact for ``lam = 1``)."""
-        lam = self.params.lam
-        if lam == 1.0:
+        """``A_uu^{-1} rhs`` by GMRES (exact for ``lam = 1`` and ``Bq = 0``)."""
+        if self.formulation.identity_uu:
             return rhs.copy(), True
         D = self.scale
         shape3 = rhs.shape
@@ -373,6 +372,8 @@ class VelocityTensionSolver:
         band_rms = float(np.sqrt(norm(band**2) / self.shape.area))
         if bending:
             force = force + self.bending_force
+        if self.formulation.viscous:  # the membrane's viscous load is part of [f]
+            force = force + self.formulation.viscous_load(self.shape, u)
         stress = particle_stress(self.shape, force, u, self.params.lam, self.params.chi)
         result = FlowResult(
             u=u,
