@@ -72,8 +72,9 @@ def read_checkpoint(
 ) -> list[NeutralPoint]:
     """The points of the neutral-curve file ``out`` (partial or complete) whose state is in
     ``folder``, each with that state as its ``start``.  A file of another curve (v, flow,
-    degree, grid, orientation, modes, xtol) is refused with ValueError; a point whose state
-    file is missing or does not match is left out (traced again), with a warning."""
+    degree, grid, orientation, modes, xtol, and the membrane's ``bq``) is refused with
+    ValueError; a point whose state file is missing or does not match is left out (traced
+    again), with a warning."""
     out = Path(out)
     try:
         data = json.loads(out.read_text())
@@ -90,6 +91,8 @@ def read_checkpoint(
     if "physics" in data:
         flow = json.loads(json.dumps(physics.to_dict()["flow"]))  # as the file holds it
         _check("flow", data["physics"].get("flow"), flow)
+    # files written before the membrane's viscosity existed are of Bq = 0
+    _check("bq", float(data.get("physics", {}).get("bq", 0.0)), physics.bq)
     points = []
     for entry in data["points"] + data.get("bisection", []):
         path = state_path(folder, float(entry["chi"]))

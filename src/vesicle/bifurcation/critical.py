@@ -145,6 +145,17 @@ def vorticity_start_lambda(v: float) -> float:
     return 4.0 * max(1.0, misbah_critical_lambda(v))
 
 
+def _default_start(physics: Physics) -> float:
+    """The first lambda of a search: the leading-order in-plane lambda_c, at least 1; with a
+    viscous membrane that estimate less ``(16/23) Bq`` (the leading-order theories' effective
+    viscosity ratio ``lam + (16/23) Bq``, :func:`vesicle.model.theory.effective_viscosity_ratio`),
+    at least 0.5."""
+    estimate = misbah_critical_lambda(physics.v)
+    if physics.bq == 0.0:
+        return max(1.0, estimate)
+    return max(0.5, estimate - 16.0 * physics.bq / 23.0)
+
+
 def critical_lambda(
     physics: Physics | float,
     discretisation: Discretisation | float | None = None,
@@ -312,7 +323,7 @@ def _search(
             progress({"lam": lam, "omega_R": w_r, "omega_I": w_i})
         return w_i
 
-    lam = lam0 if lam0 is not None else max(1.0, misbah_critical_lambda(physics.v))
+    lam = lam0 if lam0 is not None else _default_start(physics)
     if analysis.orientation == "vorticity":  # stable above lambda_c: bracket the decay rate
         if lam0 is None:
             lam = vorticity_start_lambda(physics.v)

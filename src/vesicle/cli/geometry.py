@@ -11,6 +11,7 @@ from vesicle.cli.base import fail as _fail
 from vesicle.cli.base import main, with_version
 from vesicle.cli.options import discretisation_options, physics_options
 from vesicle.geometry.surface import Shape, ShapeError
+from vesicle.model.formulation import Formulation
 from vesicle.model.parameters import Physics
 from vesicle.solve.solver import SolverError, default_tension_degree, solve_flow
 from vesicle.sphere.rotation import rotation_matrix
@@ -135,7 +136,7 @@ def parse_shape(spec: str, grid: int, degree: int | None, tilt_degrees: float) -
     show_default=True,
     help="Rotate the shape in the x-z plane: long axis from x towards z, degrees.",
 )
-@physics_options(("lam", "chi", "flow"))
+@physics_options(("lam", "chi", "flow", "bq"))
 @discretisation_options(("n_rot", "backend", "method", "threads"))
 @click.option(
     "--grid", type=int, default=32, show_default=True, help="n_theta (n_phi = 2 n_theta)."
@@ -156,9 +157,10 @@ def solve(shape_spec, tilt, grid, degree, steady, split, as_json, **options) -> 
     try:
         s = parse_shape(shape_spec, grid, degree, tilt)
         lam, chi, flow = options.pop("lam"), options.pop("chi"), options.pop("flow")
-        physics = Physics(v=min(1.0, s.reduced_volume), lam=lam, chi=chi, flow=flow)
+        physics = Physics(v=min(1.0, s.reduced_volume), lam=lam, chi=chi, flow=flow,
+                          bq=options.pop("bq"))  # fmt: skip
         layer_options = {k: options[k] for k in ("n_rot", "backend", "method")}
-        layer_options["kernels"] = ("single",) if lam == 1.0 else ("single", "double")
+        layer_options["kernels"] = Formulation.of(physics).kernels
         result = solve_flow(
             s,
             physics,

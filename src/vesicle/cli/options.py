@@ -34,8 +34,8 @@ def _apply(decorators):
     return wrap
 
 
-def physics_options(names=("v", "lam", "chi", "flow")):
-    """``--v --lam --chi --flow`` with the defaults of :class:`Physics`."""
+def physics_options(names=("v", "lam", "chi", "flow", "bq")):
+    """``--v --lam --chi --flow --bq`` with the defaults of :class:`Physics`."""
     table = {
         "v": click.option("--v", "v", type=float, default=_P.v, show_default=True,
                           help="Reduced volume, in (0, 1]."),
@@ -45,6 +45,9 @@ def physics_options(names=("v", "lam", "chi", "flow")):
                             help="Dimensionless shear rate (strain rate of other flows)."),
         "flow": click.option("--flow", type=click.Choice(sorted(FLOWS)), default=_P.flow.name,
                              show_default=True, help="Background linear flow."),
+        "bq": click.option("--bq", type=float, default=_P.bq, show_default=True,
+                           help="Boussinesq number eta_m / (mu_out a) of the membrane's surface "
+                           "viscosity, >= 0 (0: the paper's inviscid membrane)."),
     }  # fmt: skip
     return _apply([table[n] for n in names])
 
@@ -102,7 +105,7 @@ def task_option(key: str, name: str | None = None, **changes):
 
 def make_physics(options: dict, **overrides) -> Physics:
     """The :class:`Physics` of the parsed options (popped from ``options``)."""
-    values = {k: options.pop(k) for k in ("v", "lam", "chi", "flow") if k in options}
+    values = {k: options.pop(k) for k in ("v", "lam", "chi", "flow", "bq") if k in options}
     return Physics(**{**values, **overrides})
 
 
@@ -118,7 +121,7 @@ def make_discretisation(options: dict) -> Discretisation:
 #: Command-line option -> (config table, key) for the options the tables cover.
 CONFIG_KEYS = {
     "v": ("physics", "v"), "lam": ("physics", "lam"), "chi": ("physics", "chi"),
-    "flow": ("physics", "flow"), "grid": ("discretisation", "grid"),
+    "flow": ("physics", "flow"), "bq": ("physics", "bq"), "grid": ("discretisation", "grid"),
     "degree": ("discretisation", "degree"), "n_rot": ("discretisation", "n_rot"),
     "backend": ("discretisation", "backend"), "method": ("discretisation", "method"),
     "threads": ("discretisation", "workers"), "tolerances": ("solver", "preset"),

@@ -140,7 +140,7 @@ def tt(
 
 
 @main.command()
-@physics_options(("v", "chi", "flow"))
+@physics_options(("v", "chi", "flow", "bq"))
 @discretisation_options()
 @task_option("lam0")
 @task_option("step")
@@ -229,7 +229,7 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     "--chi", default=str(Physics().chi), show_default=True,
     help="Dimensionless shear rate (or a range/list)."
 )
-@physics_options(("flow",))
+@physics_options(("flow", "bq"))
 @click.option("--step", type=float, default=None,
               help="Step size of a START:STOP range, which may run down (8:7) [default: 1].")
 @discretisation_options()
@@ -453,7 +453,7 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 
 
 @main.command("neutral")
-@physics_options(("v", "flow"))
+@physics_options(("v", "flow", "bq"))
 @task_option("chi", "chi_text")
 @task_option("points")
 @discretisation_options()

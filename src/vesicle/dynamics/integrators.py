@@ -144,7 +144,7 @@ RUN_DEFAULTS = {
     "checkpoint_every": 60.0,  # wall seconds between checkpoints
 }
 
-_PHYSICS_KEYS = ("v", "lam", "chi", "flow")
+_PHYSICS_KEYS = ("v", "lam", "chi", "flow", "bq")
 _DISCRETISATION_KEYS = ("grid", "degree", "n_rot", "backend", "method", "workers")
 
 
@@ -257,6 +257,7 @@ class RunParameters:
     lam = property(lambda self: self.physics.lam)
     chi = property(lambda self: self.physics.chi)
     flow = property(lambda self: self.physics.flow)
+    bq = property(lambda self: self.physics.bq)
     grid = property(lambda self: self.discretisation.grid)
     degree = property(lambda self: self.discretisation.degree)
 
@@ -464,7 +465,8 @@ class Integrator:
         shape = first.shape
         a = np.sqrt(shape.area / (4.0 * np.pi))
         sigma = float(shape.integrate(first.flow.sigma)) / shape.area
-        rates = sphere_relaxation_rates(self.params.degree, self.params.lam, sigma * a * a)
+        rates = sphere_relaxation_rates(self.params.degree, self.params.lam, sigma * a * a,
+                                        self.params.bq / a)  # fmt: skip
         return np.maximum(rates, 0.0) / a**3
 
     def _step_ros2(self, y: np.ndarray, dt: float, first: Evaluation) -> StepResult:

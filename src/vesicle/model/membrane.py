@@ -26,12 +26,15 @@ __all__ = [
     "NOISE_FLOOR",
     "bending_energy",
     "bending_force",
+    "component_strain",
     "membrane_dissipation",
     "membrane_force",
     "rate_of_strain",
+    "strain_divergence",
     "tension_energy",
     "tension_force",
     "viscous_force",
+    "viscous_force_reference",
 ]
 
 
@@ -75,37 +78,92 @@ def membrane_force(shape: Shape, sigma: np.ndarray, kappa: float = 1.0) -> np.nd
     return bending_force(shape, kappa) + tension_force(shape, sigma)
 
 
+#: The six independent components of a symmetric 3x3 tensor, and each (i, j)'s index among them.
+_PAIRS = ((0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2))
+_INDEX = {**{p: k for k, p in enumerate(_PAIRS)}, **{p[::-1]: k for k, p in enumerate(_PAIRS)}}
+
+
+def _projected_derivatives(shape: Shape, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``P du/dtheta`` and ``P du/dphi`` of velocities (..., 3, nt, np), spectrally."""
+    T = transform(shape.grid.n_theta)
+    dt, dp = T.gradient(T.analysis(u))
+    n = shape.normal
+    dt = dt - (dt * n).sum(axis=-3, keepdims=True) * n
+    dp = dp - (dp * n).sum(axis=-3, keepdims=True) * n
+    return dt, dp
+
+
+def _strain_components(shape: Shape, u: np.ndarray) -> np.ndarray:
+    """The six components :data:`_PAIRS` of ``D_s(u)``, (..., 6, nt, np):
+    ``D_ij = 1/2 (a^b_i (P du/dxi^b)_j + a^b_j (P du/dxi^b)_i)``, since
+    ``(G P)_ij = a^b_i (P du/dxi^b)_j``."""
+    at, ap = shape.geometry.dual_tangents
+    dt, dp = _projected_derivatives(shape, u)
+    return np.stack([0.5 * (at[i] * dt[..., j, :, :] + ap[i] * dp[..., j, :, :]
+                            + at[j] * dt[..., i, :, :] + ap[j] * dp[..., i, :, :])
+                     for i, j in _PAIRS], axis=-3)  # fmt: skip
+
+
 def rate_of_strain(shape: Shape, u: np.ndarray) -> np.ndarray:
     """The surface rate of strain ``D_s(u)`` of membrane velocities ``u`` (..., 3, nt, np),
     as (..., 3, 3, nt, np): ``1/2 (G P + (G P)^T)`` with ``G_ij = a^b_i du_j/dxi^b`` and
     ``P = I - n n``.  For ``u = u_t + u_n n`` it holds the ``u_n b`` term (from ``dn/dxi``);
     its trace is ``div_s u``; a rigid motion gives zero (to rounding)."""
+    D = _strain_components(shape, u)
+    return np.stack([np.stack([D[..., _INDEX[i, j], :, :] for j in range(3)], axis=-3)
+                     for i in range(3)], axis=-4)  # fmt: skip
+
+
+def component_strain(shape: Shape) -> np.ndarray:
+    """``S`` (2, 3, 6, nt, np) with ``D_s(Y e_k) = S[0, k] dY/dtheta + S[1, k] dY/dphi`` (the six
+    components :data:`_PAIRS`) for any scalar field ``Y``: ``S[b, k]_ij = 1/2 (a^b_i P_jk +
+    a^b_j P_ik)``.  The viscous operator's matrix (:mod:`vesicle.solve.factorised`) is built from
+    it without transforming each unit field's velocity."""
+    at, ap = shape.geometry.dual_tangents
+    n = shape.normal
+    P = np.eye(3)[:, :, None, None] - n[:, None] * n[None, :]
+    return np.array([[[0.5 * (a[i] * P[j, k] + a[j] * P[i, k]) for i, j in _PAIRS]
+                      for k in range(3)] for a in (at, ap)])  # fmt: skip
+
+
+def strain_divergence(shape: Shape, D: np.ndarray) -> np.ndarray:
+    """``-2 div_s D`` of symmetric tensors given by their six components (..., 6, nt, np):
+    ``(div_s D)_j = a^b_i dD_ij/dxi^b``, the components analysed and differentiated once."""
     T = transform(shape.grid.n_theta)
-    dt, dp = T.gradient(T.analysis(u))  # (..., 3, nt, np): du_j/dtheta, du_j/dphi
+    at, ap = shape.geometry.dual_tangents
+    Dt, Dp = T.gradient(T.analysis(D))
+    div = np.stack([sum(at[i] * Dt[..., _INDEX[i, j], :, :] + ap[i] * Dp[..., _INDEX[i, j], :, :]
+                        for i in range(3)) for j in range(3)], axis=-3)  # fmt: skip
+    return -2.0 * div
+
+
+def viscous_force(shape: Shape, u: np.ndarray, bq: float = 1.0) -> np.ndarray:
+    """The membrane's viscous load ``f_eta = -2 Bq div_s D_s(u)`` for velocities ``u``
+    (..., 3, nt, np) (module notes; SPEC §17), with ``(div_s D)_j = a^b_i dD_ij/dxi^b``: the six
+    components of ``D_s`` analysed and differentiated once.  On a unit sphere a tangential
+    divergence-free field of degree ``l`` gives ``Bq (l - 1)(l + 2) u``.
+    :func:`viscous_force_reference` is the same with the whole tensor and ``einsum``."""
+    return bq * strain_divergence(shape, _strain_components(shape, u))
+
+
+def viscous_force_reference(shape: Shape, u: np.ndarray, bq: float = 1.0) -> np.ndarray:
+    """:func:`viscous_force` written plainly: ``G``, ``G P``, the full ``D_s`` and its
+    divergence by ``einsum`` over all nine components (three times slower)."""
+    T = transform(shape.grid.n_theta)
+    dt, dp = T.gradient(T.analysis(u))
     at, ap = shape.geometry.dual_tangents
     n = shape.normal
     G = at[:, None] * dt[..., None, :, :, :] + ap[:, None] * dp[..., None, :, :, :]
     Gn = np.einsum("...ijtp,jtp->...itp", G, n)
     GP = G - Gn[..., :, None, :, :] * n[None]
-    return 0.5 * (GP + np.swapaxes(GP, -4, -3))
-
-
-def _tensor_divergence(shape: Shape, D: np.ndarray) -> np.ndarray:
-    """``(div_s D)_j = a^b_i dD_ij/dxi^b`` of tensor fields (..., 3, 3, nt, np)."""
-    T = transform(shape.grid.n_theta)
-    dt, dp = T.gradient(T.analysis(D))
-    at, ap = shape.geometry.dual_tangents
-    return np.einsum("itp,...ijtp->...jtp", at, dt) + np.einsum("itp,...ijtp->...jtp", ap, dp)
-
-
-def viscous_force(shape: Shape, u: np.ndarray, bq: float = 1.0) -> np.ndarray:
-    """The membrane's viscous load ``f_eta = -2 Bq div_s D_s(u)`` for velocities ``u``
-    (..., 3, nt, np) (module notes; SPEC §17).  On a unit sphere a tangential divergence-free
-    field of degree ``l`` gives ``Bq (l - 1)(l + 2) u``."""
-    return (-2.0 * bq) * _tensor_divergence(shape, rate_of_strain(shape, u))
+    D = 0.5 * (GP + np.swapaxes(GP, -4, -3))
+    Dt, Dp = T.gradient(T.analysis(D))
+    div = np.einsum("itp,...ijtp->...jtp", at, Dt) + np.einsum("itp,...ijtp->...jtp", ap, Dp)
+    return (-2.0 * bq) * div
 
 
 def membrane_dissipation(shape: Shape, u: np.ndarray, bq: float = 1.0) -> float:
     """``int 2 Bq D_s(u) : D_s(u) dA``, the power the membrane's viscosity dissipates."""
-    D = rate_of_strain(shape, u)
-    return float(2.0 * bq * shape.integrate(np.einsum("ijtp,ijtp->tp", D, D)))
+    D = _strain_components(shape, u)
+    weights = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])  # off-diagonal pairs count twice
+    return float(2.0 * bq * shape.integrate(np.einsum("k,ktp,ktp->tp", weights, D, D)))

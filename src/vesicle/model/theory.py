@@ -11,6 +11,7 @@ import numpy as np
 __all__ = [
     "danker_misbah_rheology",
     "danker_misbah_tt_rheology",
+    "effective_viscosity_ratio",
     "excess_area",
     "lebedev_parameters",
     "misbah_critical_lambda",
@@ -45,6 +46,13 @@ def misbah_tt_inclination(v: float, lam: float) -> float:
     """
     arg = _misbah_argument(v, lam)
     return float(0.5 * np.arccos(arg)) if arg <= 1.0 else float("nan")
+
+
+def effective_viscosity_ratio(lam: float, bq: float) -> float:
+    """``lam + (16/23) Bq``: the viscosity ratio of an inviscid membrane whose ``l = 2`` shape
+    modes have the drag of a membrane of Boussinesq number ``bq`` (the drag ``23 lam + 32 +
+    16 Bq``, docs/reference/membrane-viscosity.md §4): the leading-order theories' use of ``Bq``."""
+    return _lam(lam) + 16.0 * float(bq) / 23.0
 
 
 def misbah_critical_lambda(v: float) -> float:

@@ -51,9 +51,10 @@ def flow_stress(
     lams,
     discretisation: Discretisation | None = None,
     tolerances: SolverTolerances | str = "steady",
+    bq: float = 0.0,
 ) -> list[ParticleStress]:
-    """``S^V`` of ``shape`` (fixed) in shear of unit rate for each viscosity ratio of ``lams``,
-    on one assembly of the layer potentials."""
+    """``S^V`` of ``shape`` (fixed) in shear of unit rate for each viscosity ratio of ``lams``
+    (membrane Boussinesq number ``bq``), on one assembly of the layer potentials."""
     # the layer-potential options (the degree is the shape's own: no bending force is formed)
     disc = discretisation or Discretisation(shape.grid.n_theta, shape.grid.n_theta // 2)
     tolerances = SolverTolerances.parse(tolerances)
@@ -62,8 +63,8 @@ def flow_stress(
                                 kernels=("single", "double"))  # fmt: skip
     out = []
     for lam in lams:
-        solver = VelocityTensionSolver(shape, Physics(lam=float(lam), chi=1.0), tolerances,
-                                       operators, None, disc)  # fmt: skip
+        solver = VelocityTensionSolver(shape, Physics(lam=float(lam), chi=1.0, bq=bq),
+                                       tolerances, operators, None, disc)  # fmt: skip
         result = solver.solve(None, bending=False, flow=True)
         if not result.converged:
             raise SolverError(f"the flow-only solve of the ellipsoid did not converge at "
@@ -73,14 +74,14 @@ def flow_stress(
 
 
 def stress_map(lengths, directions, psi0: float, psis, lams, grid: int = 32,
-               discretisation: Discretisation | None = None) -> dict:  # fmt: skip
+               discretisation: Discretisation | None = None, bq: float = 0.0) -> dict:  # fmt: skip
     """``S_xz``, ``N1``, ``N2`` (each (len(psis), len(lams))) of the equivalent ellipsoid of
     ``lengths``/``directions`` (inclination ``psi0``) turned to each inclination of ``psis``."""
     psis, lams = np.asarray(psis, dtype=float), np.asarray(lams, dtype=float)
     maps = {k: np.empty((psis.size, lams.size)) for k in ("S_xz", "N1", "N2")}
     for i, psi in enumerate(psis):
         shape = equivalent_ellipsoid(lengths, directions, grid, turn=psi - psi0)
-        for j, s in enumerate(flow_stress(shape, lams, discretisation)):
+        for j, s in enumerate(flow_stress(shape, lams, discretisation, bq=bq)):
             for k in maps:
                 maps[k][i, j] = getattr(s, k)
     return {"psi": psis, "lam": lams, **maps}

@@ -3,8 +3,11 @@
 The boundary integral equation with the surface-incompressibility constraint,
 
     [ A_uu  A_us ] [ u     ]   [ b_u ]     A_uu u = (1+lam)/2 u - (1-lam)/(8 pi) K u
-    [ A_su  0    ] [ sigma ] = [ 0   ]     A_us s = N f_sigma(s) / (8 pi)
+    [ A_su  0    ] [ sigma ] = [ 0   ]              + Bq N[V u] / (8 pi)   (membrane viscosity)
+                                           A_us s = N f_sigma(s) / (8 pi)
                                            A_su u = div_s u,  b_u = u_inf - N f_B / (8 pi)
+
+(:mod:`vesicle.model.formulation`; ``V u = -2 div_s D_s(u)``, zero at ``Bq = 0``)
 
 is solved through its Schur complement with matrix-free GMRES: ``A_uu u* = b_u``;
 ``(A_su A_uu^-1 A_us) sigma = A_su u*``; ``A_uu u = b_u - A_us sigma``.

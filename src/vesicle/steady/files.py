@@ -134,7 +134,7 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
     ``stability`` sweep stores per point), with the package version and the parameters."""
     p, d = result.physics, result.discretisation
     out = stamped({
-        "v": p.v, "lam": p.lam, "chi": p.chi, "flow_type": p.flow.name,
+        "v": p.v, "lam": p.lam, "chi": p.chi, "bq": p.bq, "flow_type": p.flow.name,
         "degree": d.degree, "grid": d.grid,
         "physics": p.to_dict(), "discretisation": d.to_dict(),
         "psi": result.psi, "D": result.D, "axes": np.asarray(result.axes).tolist(),

@@ -39,7 +39,7 @@ from vesicle.model.settings import (
     refuse_unknown,
     warn_loose,
 )
-from vesicle.model.theory import misbah_tt_inclination
+from vesicle.model.theory import effective_viscosity_ratio, misbah_tt_inclination
 from vesicle.solve.solver import SolverError
 from vesicle.sphere.bases import FullBasis, RealBasis, SymmetricBasis
 from vesicle.sphere.rotation import rotation_matrix
@@ -166,7 +166,7 @@ def _initial_angle(physics: Physics) -> float:
     flow = physics.flow
     sign = 1.0 if physics.chi >= 0 else -1.0
     if np.array_equal(flow.matrix, LinearFlow.shear().matrix):
-        psi = misbah_tt_inclination(physics.v, physics.lam)
+        psi = misbah_tt_inclination(physics.v, effective_viscosity_ratio(physics.lam, physics.bq))
         return sign * (0.1 if not np.isfinite(psi) else psi)
     E = sign * flow.rate_of_strain[np.ix_([0, 2], [0, 2])]
     w, vec = np.linalg.eigh(E)

@@ -60,7 +60,7 @@ __all__ = ["FOLDERS", "GRID_KEYS", "OPTIONS", "TASKS", "Option", "Task", "analys
 log = logging.getLogger(__name__)
 
 #: Parameters a grid may sweep.
-GRID_KEYS = ("v", "lam", "chi")
+GRID_KEYS = ("v", "lam", "chi", "bq")
 
 
 # ------------------------------------------------------------------------ options
@@ -244,7 +244,7 @@ def _branch(physics: Physics, disc: Discretisation, options: dict, settings: dic
     if options.get("ellipsoid"):  # S^V of each point's equivalent ellipsoid (SPEC §11)
         for p in result["points"]:
             shape = equivalent_ellipsoid(p["axes"], p["axis_directions"], disc.grid)
-            p["ellipsoid"] = flow_stress(shape, [p["lam"]])[0].summary()
+            p["ellipsoid"] = flow_stress(shape, [p["lam"]], bq=physics.bq)[0].summary()
     return stamped({"physics": fixed, "discretisation": disc.to_dict(),
             **{k: physics.to_dict()[k] for k in GRID_KEYS if k != name}, **result})  # fmt: skip
 
@@ -299,7 +299,7 @@ def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settin
     d = diagnose(state.shape)
     psis = _values(options.get("psi", "-0.6:0.8"), int(options.get("points", 15)), "[task] psi")
     lams = _values(options.get("lams", "1:12"), int(options.get("points", 15)), "[task] lams")
-    m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid)
+    m = stress_map(d.lengths, d.axes, state.psi, psis, lams, disc.grid, bq=physics.bq)
     return stamped({"physics": physics.to_dict(),
             "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
             "chi": physics.chi, "state": {"psi": state.psi, "axes": d.lengths.tolist(),
