@@ -168,6 +168,9 @@ REFUSED = [
     bad("run --lam -2", r"\blam\b"),
     bad("run --lam inf", r"\blam\b"),
     bad("run --chi nan", r"\bchi\b"),
+    # the membrane's Boussinesq number: >= 0 and finite (Physics' docstring, --bq's help)
+    bad("run --bq -1", r"\bbq\b"),
+    bad("run --bq inf", r"\bbq\b"),
     bad("run --v abc", r"--v"),
     # Discretisation: grid >= 4, degree >= 2, grid >= 2 degree (its docstring)
     bad("run --grid 3", r"grid"),
@@ -249,6 +252,8 @@ REFUSED = [
     # --- vesicle tt
     bad("tt --v 0", r"reduced volume v"),
     bad("tt --lam 0", r"\blam\b"),
+    bad("tt --bq -0.5", r"\bbq\b"),
+    bad("tt --bq nan", r"\bbq\b"),
     bad("tt --chi 0", r"chi"),  # a steady TT state needs a flow
     bad("tt --grid 8 --degree 6", r"too coarse"),
     bad("tt --max-iterations 0", r"max_iterations"),
@@ -265,6 +270,7 @@ REFUSED = [
     # --- vesicle critical
     bad("critical --v 1.5", r"reduced volume v"),
     bad("critical --lam 8", r"No such option.*--lam"),
+    bad("critical --bq -2", r"\bbq\b"),
     bad("critical --xtol 0", r"xtol"),  # --help: "Tolerance on lambda_c"
     bad("critical --xtol -1", r"xtol"),
     bad("critical --step 0", r"step"),
@@ -281,6 +287,7 @@ REFUSED = [
     bad("branch", r"exactly one"),
     bad("branch --lam 1,x,3", r"--lam.*'x'"),
     bad("branch --lam 0:2", r"\blam\b"),
+    bad("branch --lam 1:3 --bq -1", r"\bbq\b"),
     bad("branch --lam 1:nan", r"--lam"),
     bad("branch --v 0.9:1.2:0.1", r"reduced volume v"),
     bad("branch --lam 1:3 --chi nan", r"chi"),
@@ -293,6 +300,7 @@ REFUSED = [
     bad("branch --lam 1:3 --states {afile}", r"--states"),
     # --- vesicle neutral (--help: a list, or a range LOW:HIGH with --points)
     bad("neutral --chi 0:1", r"--chi"),
+    bad("neutral --bq -1", r"\bbq\b"),
     bad("neutral --chi 10:0.1", r"--chi"),
     bad("neutral --chi 0.1:10 --points 1", r"--points"),
     bad("neutral --chi 1,2 --points 3", r"--points"),
@@ -418,6 +426,7 @@ REFUSED = [
     bad("solve --shape spheroid:1.5", r"reduced volume|\bv\b"),
     bad("solve --shape spheroid:x", r"cannot read the numbers"),
     bad("solve --lam 0", r"\blam\b"),
+    bad("solve --bq -1", r"\bbq\b"),
     bad("solve --chi inf", r"\bchi\b"),
     bad("solve --tilt nan", r"tilt"),
     bad("solve --grid 2", r"grid"),

@@ -317,3 +317,28 @@ def test_viscous_matrix_matches_its_reference(shape):
     system = FactorisedSystem(solver)
     fast, ref = system.viscous_matrix(), system.viscous_matrix(reference=True)
     assert np.abs(fast - ref).max() < 1e-12 * np.abs(ref).max()
+
+
+def test_the_membrane_viscous_stress_is_reported_as_a_part_of_s(shape):
+    """``S`` is the moment of the whole load: bending + tension + viscous (+ the lam - 1 term);
+    the viscous part is reported alone, and ``S = S^B + S^V`` still holds (the solve is linear
+    in its right-hand side).  A rigid rotation (the sphere in shear) has none."""
+    from vesicle.model.rheology import particle_stress
+    from vesicle.solve.solver import with_split
+
+    p = Physics(v=0.9, lam=3.0, chi=2.0, bq=4.0)
+    solver = VelocityTensionSolver(shape, p, TIGHT)
+    r = solver.solve()
+    parts = {"bending": solver.solve(bending=True, flow=False),
+             "flow": solver.solve(bending=False, flow=True)}  # fmt: skip
+    r = with_split(r, parts)
+    f_eta = viscous_force(shape, r.u, 4.0)
+    rest = r.load - f_eta
+    S_rest = particle_stress(shape, rest, r.u, 3.0, 2.0).S
+    np.testing.assert_allclose(S_rest + r.viscous.S, r.S, atol=1e-12 * np.abs(r.S).max())
+    np.testing.assert_allclose(r.split["bending"].S + r.split["flow"].S, r.S,
+                               atol=1e-8 * np.abs(r.S).max())  # fmt: skip
+    assert abs(r.viscous.S_xz) > 0.05 * abs(r.S_xz)
+    sphere = solve_flow(Shape.sphere(1.0, 16), Physics(v=1.0, lam=3.0, chi=2.0, bq=4.0))
+    assert abs(sphere.viscous.S_xz) < 1e-8
+    assert solve_flow(shape, p.replace(bq=0.0)).viscous is None

@@ -48,6 +48,7 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = []\n', "empty list"),
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = ["a"]\n', "must hold numbers"),
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nv = [1.5]\n', "v must"),
+        ('[sweep]\ntask = "critical"\nout = "s.h5"\n[grid]\nbq = [0.0, -1.0]\n', "bq must"),
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[physics]\nlam = 2.0\n', "both"),
         (
             '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[discretisation]\ngrid = 4\n',

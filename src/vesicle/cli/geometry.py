@@ -191,6 +191,8 @@ def solve(shape_spec, tilt, grid, degree, steady, split, as_json, **options) -> 
     }
     if split and result.split:
         out.update({k: v.summary() for k, v in result.split.items()})
+    if result.viscous is not None:  # the membrane's viscous stress, a part of S
+        out["membrane_viscous"] = result.viscous.summary()
     if as_json:
         click.echo(json.dumps(with_version(out, physics=physics)))
         return

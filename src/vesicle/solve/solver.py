@@ -80,6 +80,9 @@ class FlowResult:
     tolerances: SolverTolerances
     split: dict[str, ParticleStress] | None = None
     load: np.ndarray | None = None  # the membrane load [f] (3, n_theta, n_phi) of the stress
+    #: the part of ``stress`` from the membrane's viscous load ``f_eta`` (its moment ``int f_eta x
+    #: dA / V``), ``None`` at ``Bq = 0``: a part of ``S``, contained in ``S^B`` and ``S^V`` alike
+    viscous: ParticleStress | None = None
 
     @property
     def S(self) -> np.ndarray:
@@ -375,8 +378,11 @@ class VelocityTensionSolver:
         band_rms = float(np.sqrt(norm(band**2) / self.shape.area))
         if bending:
             force = force + self.bending_force
+        viscous = None
         if self.formulation.viscous:  # the membrane's viscous load is part of [f]
-            force = force + self.formulation.viscous_load(self.shape, u)
+            f_eta = self.formulation.viscous_load(self.shape, u)
+            force = force + f_eta
+            viscous = particle_stress(self.shape, f_eta, np.zeros_like(u), 1.0, self.params.chi)
         stress = particle_stress(self.shape, force, u, self.params.lam, self.params.chi)
         result = FlowResult(
             u=u,
@@ -394,6 +400,7 @@ class VelocityTensionSolver:
             params=self.params,
             tolerances=self.tol,
             load=force,
+            viscous=viscous,
         )
         log.info(
             "solve: %d outer, %d inner iterations, div residual %.2e (rel %.2e), %.2f s%s",

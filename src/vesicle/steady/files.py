@@ -142,6 +142,8 @@ def steady_summary(result: SteadyResult, stability: StabilityResult | None = Non
         **result.stress.summary(),
         "bending": result.split["bending"].summary(),
         "flow": result.split["flow"].summary(),
+        **({"membrane_viscous": result.split["membrane_viscous"].summary()}
+           if "membrane_viscous" in result.split else {}),
         "newton_iterations": result.newton_iterations,
         "jacobians": result.jacobians,
         "residual": result.residual,

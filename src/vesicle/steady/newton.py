@@ -99,6 +99,8 @@ class SteadyResult:
     D: float
     axes: np.ndarray  # full lengths, descending
     stress: ParticleStress
+    #: ``S = S^B + S^V`` by right-hand side ("bending", "flow"); with a viscous membrane also
+    #: "membrane_viscous", the moment of its viscous load (a part of ``S``, in both)
     split: dict[str, ParticleStress]
     seconds: float
     solves: int
@@ -583,7 +585,8 @@ class _Newton:
             D=d.D,
             axes=d.lengths,
             stress=split_flow.stress,
-            split=split_flow.split,
+            split={**split_flow.split, **({"membrane_viscous": split_flow.viscous}
+                                          if split_flow.viscous is not None else {})},
             seconds=time.perf_counter() - self.t0,
             solves=self.solves,
             jacobians=self.jacobians,
