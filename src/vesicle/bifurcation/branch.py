@@ -66,7 +66,11 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 #: The parameters a branch may vary.
-PARAMETERS = ("lam", "chi", "v")
+PARAMETERS = ("lam", "chi", "v", "bq")
+
+#: The parameters whose steps and tolerances are absolute (the others' are relative): ``bq``
+#: starts at 0.
+ABSOLUTE = ("lam", "bq")
 
 #: The reduced volume of the last easier start of :func:`reach` (for smaller v): Newton from the
 #: tilted spheroid converges there at lam = chi = 1, and the state is continued in v.
@@ -138,7 +142,7 @@ class BranchPoint:
         r, p = self.steady, self.physics
         w_r, w_i = self.most_unstable
         return {
-            "lam": p.lam, "chi": p.chi, "v": p.v,
+            "lam": p.lam, "chi": p.chi, "v": p.v, "bq": p.bq,
             "psi": r.psi, "D": r.D, "axes": r.axes.tolist(),
             "axis_directions": diagnose(r.shape).axes.tolist(),
             **r.stress.summary(),
@@ -382,7 +386,7 @@ class _Tracer:
                                                    "fold", early=True) from err  # fmt: skip
                 if halvings >= self.max_halvings:
                     raise _Stop(target, last, err, f"after {halvings} halvings") from err
-                floor = self.min_step * (1.0 if self.parameter == "lam" else abs(last))
+                floor = self.min_step * (1.0 if self.parameter in ABSOLUTE else abs(last))
                 if 0.5 * abs(target - last) < floor:  # the fold is within the tolerance:
                     # creeping on would cost a failed corrector per step (v = 0.95,
                     # chi = 0.2594, N = 8: steps of 1e-5 in lam, 4 min each)
@@ -435,7 +439,7 @@ def branch(
     ----------
     physics, discretisation : Physics, Discretisation
         The fixed parameters (``physics``' own value of ``parameter`` is not used).
-    parameter : {"lam", "chi", "v"}
+    parameter : {"lam", "chi", "v", "bq"}
     values : sequence of float or str
         The values to report, in the order to continue (``"1:9"`` with ``continuation.step``,
         ``"1:9:0.5"`` or ``"1,2,4"`` also accepted).
@@ -553,7 +557,7 @@ def _locate(tracer: _Tracer, p0: BranchPoint, p1: BranchPoint, locate: bool, xto
                     return p.most_unstable[1]
             return tracer.correct(x, requested=False, on_path=False).most_unstable[1]
 
-        tol = xtol if tracer.parameter == "lam" else xtol * abs(x0)
+        tol = xtol if tracer.parameter in ABSOLUTE else xtol * abs(x0)
         try:
             x = brentq(growth, min(x0, x1), max(x0, x1), xtol=tol)
         except (NewtonError, ShapeError, SolverError, BranchJump) as err:

@@ -199,7 +199,7 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     varied = [k for k, t in texts.items() if any(c in str(t) for c in ":,")]
     if len(varied) != 1:
         fail(
-            "give exactly one of --lam, --chi, --v as a range (START:STOP[:STEP]) or a comma "
+            "give exactly one of --lam, --chi, --v, --bq as a range (START:STOP[:STEP]) or a comma "
             f"list; got {'none' if not varied else ', '.join('--' + k for k in varied)}"
         )
     name = varied[0]
@@ -229,7 +229,11 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
     "--chi", default=str(Physics().chi), show_default=True,
     help="Dimensionless shear rate (or a range/list)."
 )
-@physics_options(("flow", "bq"))
+@click.option(
+    "--bq", default=str(Physics().bq), show_default=True,
+    help="Boussinesq number of the membrane's viscosity, >= 0 (or a range/list)."
+)
+@physics_options(("flow",))
 @click.option("--step", type=float, default=None,
               help="Step size of a START:STOP range, which may run down (8:7) [default: 1].")
 @discretisation_options()
@@ -257,19 +261,19 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
 @click.pass_context
 @interruptible(lambda p: "nothing was written: a branch is written when it ends (its points "
                "were echoed above); run the command again to trace it")  # fmt: skip
-def branch_command(ctx, v, lam, chi, step, xtol, locate, arclength, past_fold, orientation,
+def branch_command(ctx, v, lam, chi, bq, step, xtol, locate, arclength, past_fold, orientation,
                    modes, jacobian, workers, scheduler, out, states, overwrite, as_json,
                    config_path, **options) -> None:  # fmt: skip
-    """Continue steady tank-treading in lam, chi or v, with its stability and special points.
+    """Continue steady tank-treading in lam, chi, v or bq, with its stability and special points.
 
-    With --config, the file's [physics] gives the values of --v/--lam/--chi not given on the
-    command line (a range or list as a string, e.g. lam = "1:9") and [discretisation] the
+    With --config, the file's [physics] gives the values of --v/--lam/--chi/--bq not given on
+    the command line (a range or list as a string, e.g. lam = "1:9") and [discretisation] the
     resolution."""
-    texts = {"v": v, "lam": lam, "chi": chi}
+    texts = {"v": v, "lam": lam, "chi": chi, "bq": bq}
     if config_path is not None:
         try:
             config = read_config(config_path, sections=("physics", "discretisation"),
-                                 ranges=("v", "lam", "chi"))  # fmt: skip
+                                 ranges=("v", "lam", "chi", "bq"))  # fmt: skip
         except ValueError as err:
             fail(str(err))
         for key in texts:
