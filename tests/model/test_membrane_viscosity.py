@@ -342,3 +342,24 @@ def test_the_membrane_viscous_stress_is_reported_as_a_part_of_s(shape):
     sphere = solve_flow(Shape.sphere(1.0, 16), Physics(v=1.0, lam=3.0, chi=2.0, bq=4.0))
     assert abs(sphere.viscous.S_xz) < 1e-8
     assert solve_flow(shape, p.replace(bq=0.0)).viscous is None
+
+
+def test_parameter_rates_with_bq_match_differences():
+    """``d adot / d (log chi, lam)`` of the two-parameter continuation (the system
+    differentiated in its parameters: ``A_uu``'s ``lam`` derivative does not involve the
+    membrane's viscosity) against central differences of complete solves at Bq = 3."""
+    p = vs.Physics(v=0.95, lam=2.0, chi=2.0, bq=3.0)
+    d = vs.Discretisation(grid=12, degree=4)
+    P = SteadyProblem(p, d, TIGHT)
+    a = initial_guess(p, d)
+    P.jacobian(a)  # keeps the shape's factorised system
+    rates = P.parameter_rates(a)
+    h = 1e-4
+    fd = []
+    for change in ({"chi": p.chi * np.exp(h)}, {"lam": p.lam + h}):
+        plus = SteadyProblem(p.replace(**change), d, TIGHT).adot(a)[0]
+        minus_change = {"chi": p.chi * np.exp(-h)} if "chi" in change else {"lam": p.lam - h}
+        minus = SteadyProblem(p.replace(**minus_change), d, TIGHT).adot(a)[0]
+        fd.append((plus - minus) / (2 * h))
+    fd = np.stack(fd, axis=1)
+    assert np.abs(rates - fd).max() < 1e-6 * np.abs(fd).max()

@@ -10,15 +10,24 @@ import numpy as np
 __all__ = ["schur_symbol", "sphere_mobility", "sphere_relaxation_rates", "viscous_symbol"]
 
 
-def _sphere_mobilities(lmax: int, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Degrees ``l`` and the eigenvalues of ``A_uu^-1 N / (8 pi)`` on ``W_l`` and ``V_l`` of the
-    unit sphere (SPEC §15); entries with no such field (``W_0``) are 0."""
+def _layer_eigenvalues(lmax: int) -> tuple[np.ndarray, ...]:
+    """Degrees ``l`` and SPEC §15's eigenvalues of ``N / (8 pi)`` and ``K / (8 pi)`` on ``W_l``
+    and ``V_l`` of the unit sphere: ``l, n_w, n_v, k_w, k_v`` (``n_w = 0`` where ``W_0`` does not
+    exist)."""
     l = np.arange(lmax + 1, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore"):
         n_w = np.where(l > 0, (l + 1) / ((2 * l - 1) * (2 * l + 1)), 0.0)
         n_v = l / ((2 * l + 1) * (2 * l + 3))
         k_w = -3.0 / (2 * (2 * l - 1) * (2 * l + 1))
         k_v = 3.0 / (2 * (2 * l + 1) * (2 * l + 3))
+    return l, n_w, n_v, k_w, k_v
+
+
+def _sphere_mobilities(lmax: int, lam: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Degrees ``l`` and the eigenvalues of ``A_uu^-1 N / (8 pi)`` on ``W_l`` and ``V_l`` of the
+    unit sphere (SPEC §15); entries with no such field (``W_0``) are 0."""
+    l, n_w, n_v, k_w, k_v = _layer_eigenvalues(lmax)
+    with np.errstate(divide="ignore", invalid="ignore"):
         a_w = 0.5 * (1 + lam) - (1 - lam) * k_w
         a_v = 0.5 * (1 + lam) - (1 - lam) * k_v
         m_w = np.where(l > 0, n_w / a_w, 0.0)
@@ -57,12 +66,7 @@ def sphere_operator_blocks(lmax: int, lam: float, bq: float) -> tuple[np.ndarray
     """``A_uu = alpha - c K + Bq N V / (8 pi)`` on the unit sphere: its 2x2 blocks on the
     coordinates of ``(W_l, V_l)`` (lmax+1, 2, 2) and its eigenvalues on ``X_l`` (lmax+1,)
     (SPEC §15, §17).  ``W_0`` and ``X_0`` do not exist: their entries are placeholders."""
-    l = np.arange(lmax + 1, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        n_w = np.where(l > 0, (l + 1) / ((2 * l - 1) * (2 * l + 1)), 0.0)
-        n_v = l / ((2 * l + 1) * (2 * l + 3))
-        k_w = -3.0 / (2 * (2 * l - 1) * (2 * l + 1))
-        k_v = 3.0 / (2 * (2 * l + 1) * (2 * l + 3))
+    l, n_w, n_v, k_w, k_v = _layer_eigenvalues(lmax)
     E, viscous_x = viscous_symbol(lmax)
     A = np.zeros((lmax + 1, 2, 2))
     A[:, 0, 0] = 0.5 * (1 + lam) - (1 - lam) * k_w
@@ -76,15 +80,13 @@ def sphere_mobility(lmax: int, lam: float, bq: float = 0.0) -> np.ndarray:
     """``A_uu^-1 N / (8 pi)`` on the unit sphere in the coordinates of ``(W_l, V_l)``:
     (lmax+1, 2, 2), with ``A_uu = alpha - c K + Bq N V / (8 pi)`` (SPEC §15, §17).  Diagonal
     at ``Bq = 0`` (``_sphere_mobilities``); ``W_0`` does not exist (its row and column are 0)."""
-    l, m_w, m_v = _sphere_mobilities(lmax, lam)
+    _, m_w, m_v = _sphere_mobilities(lmax, lam)
     out = np.zeros((lmax + 1, 2, 2))
     out[:, 0, 0], out[:, 1, 1] = m_w, m_v
     if bq == 0.0:
         return out
     A, _ = sphere_operator_blocks(lmax, lam, bq)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        n_w = np.where(l > 0, (l + 1) / ((2 * l - 1) * (2 * l + 1)), 0.0)
-        n_v = l / ((2 * l + 1) * (2 * l + 3))
+    _, n_w, n_v, _, _ = _layer_eigenvalues(lmax)
     n = np.zeros((lmax + 1, 2, 2))
     n[:, 0, 0], n[:, 1, 1] = n_w, n_v
     A[0] = np.diag([1.0, A[0, 1, 1]])  # no W_0: keep the block invertible, then zero it
