@@ -62,18 +62,17 @@ def viscous_symbol(lmax: int) -> tuple[np.ndarray, np.ndarray]:
     return E, (l - 1) * (l + 2)
 
 
-def sphere_operator_blocks(lmax: int, lam: float, bq: float) -> tuple[np.ndarray, np.ndarray]:
+def sphere_operator_blocks(lmax: int, lam: float, bq: float) -> np.ndarray:
     """``A_uu = alpha - c K + Bq N V / (8 pi)`` on the unit sphere: its 2x2 blocks on the
-    coordinates of ``(W_l, V_l)`` (lmax+1, 2, 2) and its eigenvalues on ``X_l`` (lmax+1,)
-    (SPEC §15, §17).  ``W_0`` and ``X_0`` do not exist: their entries are placeholders."""
-    l, n_w, n_v, k_w, k_v = _layer_eigenvalues(lmax)
-    E, viscous_x = viscous_symbol(lmax)
+    coordinates of ``(W_l, V_l)``, (lmax+1, 2, 2) (SPEC §15, §17).  ``W_0`` does not exist:
+    its entries are placeholders."""
+    _, n_w, n_v, k_w, k_v = _layer_eigenvalues(lmax)
+    E, _ = viscous_symbol(lmax)
     A = np.zeros((lmax + 1, 2, 2))
     A[:, 0, 0] = 0.5 * (1 + lam) - (1 - lam) * k_w
     A[:, 1, 1] = 0.5 * (1 + lam) - (1 - lam) * k_v
     A += bq * np.stack([n_w, n_v], axis=1)[:, :, None] * E
-    x = 0.5 * (1 + lam) + 1.5 * (1 - lam) / (2 * l + 1) + bq * viscous_x / (2 * l + 1)
-    return A, x
+    return A
 
 
 def sphere_mobility(lmax: int, lam: float, bq: float = 0.0) -> np.ndarray:
@@ -85,7 +84,7 @@ def sphere_mobility(lmax: int, lam: float, bq: float = 0.0) -> np.ndarray:
     out[:, 0, 0], out[:, 1, 1] = m_w, m_v
     if bq == 0.0:
         return out
-    A, _ = sphere_operator_blocks(lmax, lam, bq)
+    A = sphere_operator_blocks(lmax, lam, bq)
     _, n_w, n_v, _, _ = _layer_eigenvalues(lmax)
     n = np.zeros((lmax + 1, 2, 2))
     n[:, 0, 0], n[:, 1, 1] = n_w, n_v
