@@ -281,3 +281,70 @@ def test_parameters_no_physics_has_give_nan_not_an_error(state):
     assert np.all(np.isnan(eq.jacobian(x, bad)))
     assert np.all(np.isnan(eq.parameter_derivative(x, bad)))
     assert np.all(np.isfinite(eq.residual(x, p)))
+
+
+# --------------------------------------------------------------- the (Bq, lambda) plane
+def test_the_bq_plane_has_bq_and_lambda_and_refuses_a_bad_plane(state):
+    eq = SteadyEquations(state.physics.replace(bq=2.0), TINY, plane=("bq", "lam"))
+    p = eq.coordinates(state.physics.replace(bq=2.0))
+    assert list(p) == [2.0, 3.0]
+    assert eq.physics_at(p) == state.physics.replace(bq=2.0)
+    assert eq.physics_at([-1e-13, 3.0]).bq == 0.0  # rounding below 0 is 0
+    x, _ = eq.state(state)
+    assert np.all(np.isnan(eq.residual(x, np.array([-1e-3, 3.0]))))  # no physics at Bq < 0
+    for bad in (("chi", "chi"), ("bq",), ("lam", "eta")):
+        with pytest.raises(ValueError, match="plane"):
+            SteadyEquations(state.physics, TINY, plane=bad)
+
+
+@pytest.mark.parametrize("bq", [2.0, 0.0])
+def test_the_parameter_derivative_in_bq_is_the_limit_of_residual_differences(state, bq):
+    """``G_p`` in ``(Bq, lambda)`` (the system differentiated in Bq: right-hand side
+    ``-N[V u]/(8 pi)``) against differences of residuals: central at Bq = 2 (O(h^2), measured
+    6e-10 relative at N = 4), one-sided forward at Bq = 0 (no physics below it: O(h) with the
+    core's step eps^(1/3), 6e-6; held to 1e-4).  At a moved point off the steady state."""
+    physics = state.physics.replace(bq=bq)
+    eq = SteadyEquations(physics, TINY, plane=("bq", "lam"))
+    x, p = eq.state(state)
+    p[0] = bq
+    x = x + 1e-3 * np.random.default_rng(3).standard_normal(x.size)
+    eq.jacobian(x, p)
+    exact = eq.parameter_derivative(x, p)
+    if bq > 0:
+        reference = codim2.fd_parameter_derivative(eq.residual, x, p)
+        tol = 1e-8
+    else:
+        h = codim2.FD_STEP * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(p))))
+        base = eq.residual(x, p)
+        reference = np.stack([(eq.residual(x, p + h * e) - base) / h for e in np.eye(2)], 1)
+        tol = 1e-4
+    assert np.all(exact[-2:] == 0.0)
+    assert np.abs(exact - reference).max() < tol * np.abs(reference).max()
+    assert np.abs(exact[:, 0]).max() > 1e-3 * np.abs(exact[:, 1]).max()  # Bq moves the state
+
+
+def test_the_critical_bq_at_a_held_lambda_is_the_bracketed_lambda_c():
+    """v = 0.95, chi = 3.162, N = 4 on 16x32.  ``vesicle critical --bq 1 --xtol 1e-5`` (Brent's
+    method on the leading growth rate of vesicle.steady.stability at Bq = 1: lambda held,
+    bracketed in lambda) gave lambda_c = 7.5502789, Hopf, omega_R = 1.30869.  Here lambda is
+    held at that value and Bq is the free parameter of the Hopf system (its derivative in Bq
+    from the parameter-differentiated solve): Bq_c = 1 to the bracket's 1e-5 in lambda over
+    the slope |d lambda_c / d Bq| = 1.04 (measured 0.999999)."""
+    disc = vs.Discretisation(grid=16, degree=4)
+    physics = vs.Physics(v=0.95, lam=7.5502789, chi=3.162, bq=0.95)
+    eq = SteadyEquations(physics, disc, form="spec", plane=("bq", "lam"))
+    x, p = eq.state(vs.steady_tank_treading(physics, disc))
+    settings = codim2.Settings(ftol=1e-8, step_tol=1e-6, newton_differences="central")
+    point = codim2.locate_hopf(eq, x, p, free=0, settings=settings)
+    assert point.converged and point.residual < 1e-8
+    assert point.p[0] == pytest.approx(1.0, abs=3e-5)
+    assert point.p[1] == 7.5502789  # lambda held
+    assert point.omega == pytest.approx(1.30869, abs=1e-4) and not point.other_unstable
+    # and at Bq = 0 held (Newton's differences one-sided there): the bracketed 8.59004 of
+    # test_a_hopf_point_located_on_the_augmented_system_is_the_bracketed_lambda_c
+    zero = SteadyEquations(physics.replace(bq=0.0, lam=8.57), disc, form="spec",
+                           plane=("bq", "lam"))  # fmt: skip
+    x, p = zero.state(vs.steady_tank_treading(physics.replace(bq=0.0, lam=8.57), disc))
+    point = codim2.locate_hopf(zero, x, p, free=1, settings=settings)
+    assert point.converged and abs(point.p[0]) <= 1e-12
+    assert point.p[1] == pytest.approx(8.59004, abs=1e-3)

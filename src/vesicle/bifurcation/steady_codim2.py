@@ -45,6 +45,7 @@ from vesicle.steady.problem import SteadyProblem
 __all__ = [
     "ACTIONS",
     "FORMS",
+    "PLANE_PARAMETERS",
     "SteadyEquations",
     "TypeChange",
     "locate_type_change",
@@ -80,9 +81,22 @@ PARAMETER_DERIVATIVES = ("exact", "differences")
 log = logging.getLogger(__name__)
 
 
+#: The planes the steady equations are continued in: two of ``chi`` (continued in ``log chi``),
+#: ``lam`` and ``bq`` (the Boussinesq number of the membrane's viscosity, issue 42), in order.
+PLANE_PARAMETERS = ("chi", "lam", "bq")
+
+#: A Boussinesq number this far below 0 is rounding (a direction's p component of 1e-18 times a
+#: step) and is taken as 0; further below, the physics has none: the differences of the Newton
+#: matrices at ``Bq = 0`` then take their one-sided form on the side of ``Bq >= 0``.
+BQ_ROUNDING = 1e-12
+
+
 class SteadyEquations(codim2.Problem):
     """The steady equations at fixed ``v`` (and flow) as a :class:`codim2.Problem` in
-    ``p = (log chi, lambda)``.
+    ``p = (log chi, lambda)`` (the default ``plane=("chi", "lam")``), or in another plane of
+    two of :data:`PLANE_PARAMETERS`: ``plane=("bq", "lam")`` continues in ``p = (Bq, lambda)``
+    at fixed ``chi`` (the curves of a viscous membrane, issue 42).  The other parameters are
+    those of ``physics``.
 
     Each parameter point gets one :class:`SteadyProblem`, kept while the continuation stays
     there, so that a residual and the Jacobian at the same point share one assembly of the
@@ -99,7 +113,14 @@ class SteadyEquations(codim2.Problem):
         actions: str = "linearised",
         parameter_derivatives: str = "exact",
         reuse_factorisation: bool = True,
+        plane: tuple[str, str] = ("chi", "lam"),
     ):
+        plane = tuple(plane)
+        if len(plane) != 2 or plane[0] == plane[1] or \
+                any(q not in PLANE_PARAMETERS for q in plane):  # fmt: skip
+            raise ValueError(f"plane must be two different names of {PLANE_PARAMETERS}, "
+                             f"got {plane!r}")  # fmt: skip
+        self.plane = plane
         if form not in FORMS:
             raise ValueError(f"form must be one of {FORMS}, got {form!r}")
         if actions not in ACTIONS:
@@ -115,7 +136,7 @@ class SteadyEquations(codim2.Problem):
         self._kept: tuple[tuple[float, float], SteadyProblem] | None = None
         self._jacobians: OrderedDict[tuple, np.ndarray] = OrderedDict()
         self._sigma = None
-        probe = self.problem_at((math.log(physics.chi), physics.lam))
+        probe = self.problem_at(self.coordinates(physics))
         self.size = probe.basis.size
         mass = np.eye(self.size + 2)
         mass[-2:, -2:] = 0.0
@@ -147,8 +168,17 @@ class SteadyEquations(codim2.Problem):
         return A, B
 
     # ------------------------------------------------------------------ points
+    def coordinates(self, physics: Physics) -> np.ndarray:
+        """The continuation's ``p`` of ``physics`` (``log chi`` for ``chi``)."""
+        return np.array([math.log(physics.chi) if q == "chi" else float(getattr(physics, q))
+                         for q in self.plane])  # fmt: skip
+
     def physics_at(self, p) -> Physics:
-        return self.physics.replace(chi=float(math.exp(p[0])), lam=float(p[1]))
+        values = {q: float(math.exp(x)) if q == "chi" else float(x)
+                  for q, x in zip(self.plane, p, strict=True)}  # fmt: skip
+        if "bq" in values and -BQ_ROUNDING <= values["bq"] < 0.0:
+            values["bq"] = 0.0
+        return self.physics.replace(**values)
 
     def problem_at(self, p) -> SteadyProblem:
         key = (float(p[0]), float(p[1]))
@@ -164,7 +194,7 @@ class SteadyEquations(codim2.Problem):
     def state(self, steady: SteadyResult) -> tuple[np.ndarray, np.ndarray]:
         """``(x, p)`` of a converged steady state (its shape's coordinates in this problem's
         basis: a state found in the symmetric basis is taken into the general one)."""
-        p = np.array([math.log(steady.physics.chi), steady.physics.lam])
+        p = self.coordinates(steady.physics)
         a = np.asarray(steady.a, float)
         basis = self.problem_at(p).basis
         if a.size != basis.size:
@@ -172,10 +202,13 @@ class SteadyEquations(codim2.Problem):
         return np.concatenate([a, steady.multipliers]), p
 
     # --------------------------------------------------------------- equations
-    @staticmethod
-    def _outside(p) -> bool:
-        """Parameters no physics has (lambda <= 0, or not finite): a corrector's wild iterate."""
-        return not (np.all(np.isfinite(p)) and p[1] > 0)
+    def _outside(self, p) -> bool:
+        """Parameters no physics has (lambda <= 0, Bq < 0, or not finite): a corrector's wild
+        iterate."""
+        if not np.all(np.isfinite(p)):
+            return True
+        values = dict(zip(self.plane, p, strict=True))
+        return values.get("lam", 1.0) <= 0 or values.get("bq", 0.0) < -BQ_ROUNDING
 
     def residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``G(x, p)``; NaN where the shape cannot be represented or solved for, or ``lambda``
@@ -229,10 +262,11 @@ class SteadyEquations(codim2.Problem):
         return J
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """``G_p`` in ``p = (log chi, lambda)``: the velocity-tension system differentiated in
-        its parameters (:meth:`~vesicle.steady.problem.SteadyProblem.parameter_rates`; two
-        solves with the factorised system of the same point's Jacobian) instead of two or four
-        residuals at moved parameters.  The constraint rows do not depend on ``p``.  With
+        """``G_p`` in the plane's ``p`` (e.g. ``(log chi, lambda)``): the velocity-tension
+        system differentiated in its parameters
+        (:meth:`~vesicle.steady.problem.SteadyProblem.parameter_rates`; two solves with the
+        factorised system of the same point's Jacobian) instead of two or four residuals at
+        moved parameters.  The constraint rows do not depend on ``p``.  With
         ``parameter_derivatives="differences"`` (the reference) the continuation differences
         residuals instead.  NaN where the shape cannot be represented or a solve fails."""
         if self._outside(p):
@@ -241,7 +275,7 @@ class SteadyEquations(codim2.Problem):
         m = x.size - 2
         out = np.zeros((x.size, 2))
         try:
-            out[:m] = P.parameter_rates(np.asarray(x[:m], float))
+            out[:m] = P.parameter_rates(np.asarray(x[:m], float), self.plane)
         except (ShapeError, SolverError, ValueError) as err:
             log.debug("parameter derivative at p = %s: %s", p, err)
             return np.full((x.size, 2), np.nan)
@@ -269,6 +303,8 @@ class SteadyEquations(codim2.Problem):
         if size == 0.0:
             return np.zeros(q.shape)
         h = ACTION_STEP * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(p)))) / size
+        if self._outside(p + h * d[n:]) and not self._outside(p - h * d[n:]):
+            h = -h  # at Bq = 0 moving to Bq < 0: the backward difference
         try:
             base = np.asarray(J, float) @ Q if J is not None else self._times(x, p, Q)
             out = (self._times(x + h * d[:n], p + h * d[n:], Q) - base) / h
@@ -296,7 +332,13 @@ class SteadyEquations(codim2.Problem):
         n = x.size
         h = codim2.FD_STEP * max(1.0, float(np.max(np.abs(x))), float(np.max(np.abs(p)))) / size
         Q = q.reshape(q.shape[0], -1)
+        one_sided = [side for side in (1.0, -1.0) if self._outside(p + side * h * d[n:])]
         try:
+            if len(one_sided) == 1:  # at Bq = 0, one side has Bq < 0: the other side's
+                # one-sided difference (O(h), about 6e-6 relative: for Newton's matrices)
+                g = -one_sided[0] * h
+                return ((self._times(x + g * d[:n], p + g * d[n:], Q) - self._times(x, p, Q))
+                        / g).reshape(q.shape)  # fmt: skip
             plus = self._times(x + h * d[:n], p + h * d[n:], Q)
             minus = self._times(x - h * d[:n], p - h * d[n:], Q)
         except (ShapeError, SolverError, ValueError) as err:
@@ -307,7 +349,7 @@ class SteadyEquations(codim2.Problem):
     def _times(self, x: np.ndarray, p: np.ndarray, Q: np.ndarray) -> np.ndarray:
         """``J(x, p) Q`` for a few columns (n, k), without forming ``J``."""
         if self._outside(p):
-            raise ValueError(f"lambda must be positive, got {p[1]}")
+            raise ValueError(f"parameters outside the physics: {self.plane} = {tuple(p)}")
         P = self.problem_at(p)
         m = x.size - 2
         a, mu = x[:m], x[m:]

@@ -26,6 +26,7 @@ import numpy as np
 from vesicle.geometry.surface import Shape
 from vesicle.model.formulation import EIGHT_PI, Formulation
 from vesicle.model.kinematics import constraint_gradients, rate_of_change
+from vesicle.model.membrane import viscous_force
 from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
 from vesicle.solve.factorised import (
     CoupledBlocks,
@@ -46,12 +47,16 @@ from vesicle.sphere.bases import RealBasis, basis
 from vesicle.sphere.grid import SphereGrid
 from vesicle.stokes import LayerPotentials
 
-__all__ = ["JACOBIANS", "SteadyProblem", "finite_difference_jacobian"]
+__all__ = ["JACOBIANS", "PARAMETER_RATES", "SteadyProblem", "finite_difference_jacobian"]
 
 #: How :meth:`SteadyProblem.jacobian` forms ``M``: ``"linearised"`` (the solve differentiated,
 #: :mod:`vesicle.solve.linearisation`; default) or ``"differences"`` (the reference: one or two
 #: solves of perturbed shapes per column).
 JACOBIANS = ("linearised", "differences")
+
+#: The parameters :meth:`SteadyProblem.parameter_rates` differentiates in: ``log chi`` (named
+#: ``"chi"``), ``lam`` and the Boussinesq number ``bq``.
+PARAMETER_RATES = ("chi", "lam", "bq")
 
 log = logging.getLogger(__name__)
 
@@ -325,17 +330,24 @@ class SteadyProblem:
         shape = self.shape(a)
         return linearised_action(self._solver(shape), self.basis, vectors, system)
 
-    def parameter_rates(self, a: np.ndarray) -> np.ndarray:
-        """``d adot / d (log chi, lam)`` at ``a``, (size, 2), from the velocity-tension system
-        differentiated in its parameters (no finite differences).
+    def parameter_rates(self, a: np.ndarray,
+                        parameters: tuple[str, ...] = ("chi", "lam")) -> np.ndarray:  # fmt: skip
+        """``d adot / d p`` at ``a``, (size, len(parameters)), for ``p`` among ``log chi``
+        (named ``"chi"``), ``lam`` and ``bq``: the velocity-tension system differentiated in
+        its parameters (no finite differences).
 
-        The system ``A(lam) [u; t] = [b(chi); 0]`` has ``b = chi u_inf^(1) - N[f_B]/(8 pi)`` and
-        ``A_uu = (1 + lam)/2 I - (1 - lam)/(8 pi) K``, so ``A [u_chi; t_chi] = [chi u_inf^(1); 0]``
-        and ``A [u_lam; t_lam] = [-(u/2 + K[u]/(8 pi)); 0]``; each column is the rate of change
-        of its velocity.  The solves are exact with the factorised system of this shape (kept
-        by the last Jacobian at ``a``), else by GMRES preconditioned with the kept or adopted
-        one (a factorisation where there is none).  At ``lam = 1`` the double layer, not
-        otherwise needed, is assembled for ``K[u]``."""
+        The system ``A(lam, bq) [u; t] = [b(chi); 0]`` has ``b = chi u_inf^(1) - N[f_B]/(8 pi)``
+        and ``A_uu = (1 + lam)/2 I - (1 - lam)/(8 pi) K + Bq N[V .]/(8 pi)`` (``V`` the
+        membrane's viscous operator at unit Bq), so ``A [u_chi; t_chi] = [chi u_inf^(1); 0]``,
+        ``A [u_lam; t_lam] = [-(u/2 + K[u]/(8 pi)); 0]`` and ``A [u_bq; t_bq] = [-N[V u]/(8 pi);
+        0]``; each column is the rate of change of its velocity.  The solves are exact with the
+        factorised system of this shape (kept by the last Jacobian at ``a``), else by GMRES
+        preconditioned with the kept or adopted one (a factorisation where there is none).  At
+        ``lam = 1`` the double layer, not otherwise needed, is assembled for ``K[u]``."""
+        unknown = [q for q in parameters if q not in PARAMETER_RATES]
+        if unknown:
+            raise ValueError(f"parameter_rates: unknown parameters {unknown}; "
+                             f"known: {PARAMETER_RATES}")  # fmt: skip
         if self.jacobian_method != "linearised":
             raise ValueError("parameter_rates needs jacobian_method='linearised'")
         shape = self.shape(a)
@@ -357,9 +369,16 @@ class SteadyProblem:
 
         u = solve(solver.rhs()[None])[0]
         params = self.physics
-        b_chi = params.flow.velocity(shape.x, params.chi) if params.driven else np.zeros_like(u)
-        b_lam = -(0.5 * u + solver.lp.double_layer(u) / EIGHT_PI)
-        du = solve(np.stack([b_chi, b_lam]))
+        rhs = []
+        for q in parameters:
+            if q == "chi":
+                rhs.append(params.flow.velocity(shape.x, params.chi) if params.driven
+                           else np.zeros_like(u))  # fmt: skip
+            elif q == "lam":
+                rhs.append(-(0.5 * u + solver.lp.double_layer(u) / EIGHT_PI))
+            else:  # the membrane's viscous load at unit Bq
+                rhs.append(-solver.lp.single_layer(viscous_force(shape, u, 1.0)) / EIGHT_PI)
+        du = solve(np.stack(rhs))
         degree = self.basis.degree
         return np.stack([self.basis.from_coefficients(rate_of_change(shape, d, degree))
                          for d in du], axis=1)  # fmt: skip

@@ -1,0 +1,74 @@
+"""lambda_c(Bq) by two-parameter continuation in (Bq, lambda) (vesicle.bifurcation.neutral_bq).
+
+Independent references: ``vesicle critical`` (Brent's method on the leading growth rate of
+vesicle.steady.stability, lambda bracketed at fixed Bq) at v = 0.95, chi = 3.162, N = 4 on 16x32,
+xtol 1e-5: lambda_c = 8.590045 at Bq = 0 (xtol 1e-3: 8.59004, docs/notes/continuation-
+measurements.md) and 7.5502789 at Bq = 1, both Hopf with omega_R = 1.2777 and 1.30869."""
+
+import json
+import math
+
+import pytest
+
+import vesicle as vs
+from vesicle.bifurcation.neutral_bq import leading_order_lambda_c, neutral_curve_bq
+from vesicle.model.theory import misbah_critical_lambda
+
+DISC = vs.Discretisation(grid=16, degree=4)
+
+
+@pytest.fixture(scope="module")
+def curve():
+    said = []
+    c = neutral_curve_bq(vs.Physics(v=0.95, chi=3.162), [0.0, 1.0], DISC, lam_at=[7.5502789],
+                         progress=said.append)  # fmt: skip
+    return c, said
+
+
+def test_the_curve_lands_on_the_bracketed_lambda_c(curve):
+    c, said = curve
+    assert not c.failed
+    at = {p["bq"]: p for p in c.points}
+    assert set(at) == {0.0, 1.0}
+    for bq, lam_c, omega in ((0.0, 8.590045, 1.2777), (1.0, 7.5502789, 1.30869)):
+        p = at[bq]
+        assert p["located"] and p["residual"] < 1e-8 and p["bifurcation"] == "hopf"
+        assert p["lambda_c"] == pytest.approx(lam_c, abs=2e-5)  # the brackets' xtol 1e-5
+        assert p["omega_R"] == pytest.approx(omega, abs=2e-4)
+        assert not p["other_unstable"]
+    assert any("seed" in d for d in said) and any(d.get("curve") == "hopf" for d in said)
+
+
+def test_the_critical_bq_at_a_lambda_is_solved_for_with_lambda_held(curve):
+    c, _ = curve
+    (q,) = c.critical_bq
+    assert q["located"] and q["residual"] < 1e-8 and q["lam"] == 7.5502789
+    assert q["bq"] == pytest.approx(1.0, abs=3e-5)  # 1e-5 in lambda over the slope 1.04
+
+
+def test_its_json_carries_the_parameters_and_the_leading_order_line(curve):
+    c, _ = curve
+    d = json.loads(json.dumps(c.to_dict()))
+    assert d["plane"] == ["bq", "lam"] and d["chi"] == 3.162 and d["v"] == 0.95
+    assert d["degree"] == 4 and d["grid"] == 16 and "vesicle_version" in d
+    assert d["curves"][0]["kind"] == "hopf" and d["seed"]["located"]
+    # the leading-order line lambda_c,LO(v) - 16 Bq/23 (docs/reference/membrane-viscosity.md)
+    assert leading_order_lambda_c(0.95, 2.3) == pytest.approx(
+        misbah_critical_lambda(0.95) - 1.6, rel=1e-14)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"bq": [-1.0, 1.0]}, "bq must be"),
+    ({"bq": [0.0, math.inf]}, "bq must be"),
+    ({"bq": []}, "bq must be"),
+    ({"lam_at": [0.0]}, "lam_at"),
+    ({"form": "other"}, "form"),
+    ({"lam_range": (2.0, 1.0)}, "lam_range"),
+    ({"physics": vs.Physics(chi=-1.0)}, "chi must be positive"),
+])  # fmt: skip
+def test_bad_inputs_are_refused_before_any_work(kwargs, match):
+    args = {"bq": [0.0, 1.0], **kwargs}
+    bq = args.pop("bq")
+    physics = args.pop("physics", vs.Physics())
+    with pytest.raises(ValueError, match=match):
+        neutral_curve_bq(physics, bq, DISC, **args)
