@@ -49,6 +49,12 @@ def tt_config(tmp_path, lam="[1.0, 2.0, 4.0]", extra=""):
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = ["a"]\n', "must hold numbers"),
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nv = [1.5]\n', "v must"),
         ('[sweep]\ntask = "critical"\nout = "s.h5"\n[grid]\nbq = [0.0, -1.0]\n', "bq must"),
+        ('[sweep]\ntask = "neutral_bq"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+         'values = "-1:2"\n', "values"),
+        ('[sweep]\ntask = "neutral_bq"\nout = "s.h5"\n[grid]\nchi = [1.0]\n[task]\n'
+         'lam_at = [0.0]\n', "lam_at"),
+        ('[sweep]\ntask = "neutral_bq"\nout = "s.h5"\n[grid]\nchi = [-1.0]\n', "chi must"),
+        ('[sweep]\ntask = "neutral_bq"\nout = "s.h5"\n[grid]\nlam = [1.0]\n', "lam"),
         ('[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[physics]\nlam = 2.0\n', "both"),
         (
             '[sweep]\ntask = "tt"\nout = "s.h5"\n[grid]\nlam = [1.0]\n[discretisation]\ngrid = 4\n',
@@ -405,6 +411,29 @@ def test_a_neutral_point_is_continued_in_two_parameters_by_default(monkeypatch):
     assert seen == {"chi": [1.0, 3.0], "form": "curvature",
                     "analysis": StabilitySettings(modes="general")}  # fmt: skip
     assert entry["status"] == "failed"
+
+
+def test_a_neutral_bq_point_gets_its_values_and_counts_its_failures(monkeypatch):
+    """task = "neutral_bq": lambda_c(Bq) at the point's (v, chi), given the Bq values, the
+    lambdas of the critical Bq and the analysis; a curve that stopped is a failed point."""
+    import vesicle.workflows.tasks as sweep
+    from vesicle.bifurcation.neutral_bq import BqCurve
+    from vesicle.model.settings import StabilitySettings
+
+    seen = {}
+
+    def curve(physics, bq, disc, **options):
+        seen.update(options, bq=list(bq), chi=physics.chi)
+        return BqCurve(physics, disc, "spec", [], [], [], [], [{"bq": 5.0, "error": "stop"}],
+                       0.0, 1e-8)  # fmt: skip
+
+    monkeypatch.setattr(sweep, "neutral_curve_bq", curve)
+    entry = run_point("neutral_bq", {"v": 0.95, "chi": 6.0}, {"degree": 4, "grid": 12},
+                      {"values": [0, 2, 5], "lam_at": "1", "modes": "general"}, {})
+    assert seen == {"bq": [0.0, 2.0, 5.0], "chi": 6.0, "lam_at": [1.0], "form": "spec",
+                    "lam0": None, "analysis": StabilitySettings(modes="general")}  # fmt: skip
+    assert entry["status"] == "failed" and "stop" in entry["error"]
+    assert entry["result"]["plane"] == ["bq", "lam"]
 
 
 def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeypatch,

@@ -611,7 +611,11 @@ def reach(
     The easier points are ``chi = 1`` at the same ``v`` and ``lam``, then ``lam = 1, chi = 1``
     (Newton from the tilted spheroid converges there), and for ``v`` below :data:`EASY_V` also
     ``v = EASY_V, lam = 1, chi = 1``; the state is then continued in ``v``, ``lam`` and ``chi``
-    to the target, ``legs`` geometric steps each (halved where a step fails).
+    to the target, ``legs`` geometric steps each (halved where a step fails).  A viscous
+    membrane (``bq > 0``) starts from the inviscid one's: the same point at ``bq = 0`` first,
+    then those easier points at ``bq = 0``, and the last leg continues in ``bq`` (``legs``
+    equal steps): at v = 0.95, lam = 1, chi = 1, Bq = 5 (N = 4 on 16x32) Newton from the
+    default start diverged.
     A state that Newton finds from the default start with an unstable mode may be another
     branch's (the saddle half of a fold, or a state Newton wandered to: at lam = 3.7, chi = 1,
     N = 4 it lands on psi = -0.60 with a growth rate 3.7; at lam = 2, chi = 0.2, N = 8 on one
@@ -648,6 +652,8 @@ def reach(
         easier = [physics.replace(chi=1.0), physics.replace(chi=1.0, lam=1.0)]
         if physics.v < EASY_V:  # Newton from the spheroid fails at lam = chi = 1, v = 0.90 (N = 4)
             easier.append(physics.replace(chi=1.0, lam=1.0, v=EASY_V))
+    if physics.bq > 0:  # a viscous membrane: the inviscid one's easier starts, then Bq
+        easier = [e.replace(bq=0.0) for e in (physics, *easier)]
     easier = list(dict.fromkeys(e for e in easier if e != physics))
     if direct is not None:
         spectrum = stability(direct)
@@ -701,11 +707,14 @@ def reach(
     moved = f"v = {start.physics.v:g}, " if start.physics.v != physics.v else ""
     origin = f"continued from {moved}lam = {start.lam:g}, chi = {start.chi:g}"
     say(f"{first} at lam = {physics.lam:g}, chi = {physics.chi:g}; {origin}")
-    for name in ("v", "lam", "chi"):
+    for name in ("v", "lam", "chi", "bq"):
         here, there = getattr(start.physics, name), getattr(physics, name)
         if here == there:
             continue
-        values = list(here * (there / here) ** (np.arange(1, legs + 1) / legs))
+        if name == "bq":  # from the inviscid membrane: equal steps
+            values = list(here + (there - here) * np.arange(1, legs + 1) / legs)
+        else:
+            values = list(here * (there / here) ** (np.arange(1, legs + 1) / legs))
         values[-1] = there
         leg = branch(start.physics, disc, name, values, start=start,
                      continuation=ContinuationSettings(locate=False),

@@ -156,6 +156,15 @@ def _at_bq(curves: Sequence[codim2.Curve], bq: float) -> dict | None:
     return None
 
 
+def _below_floor(curves: Sequence[codim2.Curve], lo: float) -> float | None:
+    """The ``Bq`` at which the last curve left the box below ``lambda = lo`` (its last point,
+    out of the box), else None."""
+    if not curves or curves[-1].end != "bounds":
+        return None
+    last = curves[-1].points[-1]
+    return float(last.p[0]) if last.p[1] < lo else None
+
+
 def _critical_bq(eq, curves: Sequence[codim2.Curve], lam: float, settings) -> list[dict]:
     """Each crossing of ``lambda = lam`` by the curves, solved for with ``lambda`` held."""
     out = []
@@ -283,8 +292,14 @@ def neutral_curve_bq(
         say({"switch": f"{curve.kind} -> {kind} at BT", "bq": float(switch.point.p[0]),
              "lam": float(switch.point.p[1])})  # fmt: skip
     points = []
+    floor = _below_floor(curves, lo)
     for b in bqs:
         d = _at_bq(curves, b)
+        if d is None and floor is not None and b > floor:
+            # past where lambda_c fell below the box: no stable TT at lambda >= lam_range[0]
+            d = {"bq": b, "lambda_c": None, "bifurcation": None, "located": False,
+                 "below_lam_min": lo,
+                 "note": f"lambda_c < {lo:g} here: the curve left the box at Bq = {floor:.6g}"}
         if d is None:
             failed.append({"bq": b, "error": "the curve does not reach this Bq"})
             continue

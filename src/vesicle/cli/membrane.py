@@ -82,6 +82,9 @@ def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, m
     if _emit_json(result, out, as_json):
         return
     for p in result["points"]:
+        if p["lambda_c"] is None:
+            click.echo(f"Bq={p['bq']:<8.4g} {p['note']}")
+            continue
         note = "" if p["located"] else " (estimate: not solved to tolerance)"
         if p["other_unstable"]:
             note += " (another eigenvalue unstable: not a stability boundary)"

@@ -4,7 +4,8 @@ A sweep is a task (:data:`vesicle.workflows.tasks.TASKS`) evaluated at every poi
 parameter grid.  Its config is a TOML file::
 
     [sweep]
-    task = "tt"            # tt | stability | critical | branch | neutral | run
+    task = "tt"            # tt | stability | critical | branch | neutral | neutral_bq |
+                           #   ellipsoid_map | run
     out = "s.h5"           # the results store (relative to the config file's folder)
     points = "product"     # the Cartesian product of [grid] (default), or "list": the i-th
                            #   values of every [grid] list together
@@ -23,7 +24,9 @@ parameter grid.  Its config is a TOML file::
                            #   TASKS), e.g. modes, orientation, jacobian, xtol; for branch:
                            #   parameter ("lam" | "chi" | "v", not in [grid]) and values;
                            #   for neutral: chi ("0.1:10" with points, or a list) and
-                           #   continuation ("codim2", the default, or "trace")
+                           #   continuation ("codim2", the default, or "trace"); for
+                           #   neutral_bq (grid v, chi): values (the Boussinesq numbers,
+                           #   "0:10" or a list) and lam_at (lambdas of the critical Bq)
 
 A ``branch`` point is a whole branch at the fixed values of its grid point (e.g. one per v and
 chi, continued in lam), a ``neutral`` point a whole neutral curve at its v: sweeps of these run

@@ -32,6 +32,7 @@ from vesicle.bifurcation.branch import PARAMETERS, branch, reach
 from vesicle.bifurcation.checkpoint import Checkpoint
 from vesicle.bifurcation.critical import critical_lambda, critical_summary
 from vesicle.bifurcation.neutral import neutral_curve
+from vesicle.bifurcation.neutral_bq import neutral_curve_bq
 from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
 from vesicle.bifurcation.steady_codim2 import FORMS
 from vesicle.dynamics.integrators import RunParameters
@@ -160,6 +161,8 @@ OPTIONS: dict[str, Option] = {o.key: o for o in (
            "operator (what `critical` and --continuation trace compute) or the Newton matrix "
            "with the multipliers' curvature (its fold is exactly the branch's turning point).",
            choices=FORMS),
+    Option("lam_at", (str, list), None, "neutral_bq: viscosity ratios at which to solve for "
+           "the critical Bq (a list or a comma list).", cli=False),
     Option("psi", (str, list), "-0.6:0.8", "Inclinations of the ellipsoid map.", cli=False),
     Option("lams", (str, list), "1:12", "Viscosity ratios of the ellipsoid map.", cli=False),
 )}  # fmt: skip
@@ -286,6 +289,31 @@ def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: di
     return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
 
 
+def _bq_values(options: dict) -> list[float]:
+    """``neutral_bq``'s Boussinesq numbers (``[task] values``, default 0 to 10 by 1)."""
+    values = parse_range(options.get("values", "0:10"), "step", name="[task] values")
+    if any(not b >= 0 for b in values):
+        raise ValueError(f"[task] values (Boussinesq numbers) must be >= 0, got "
+                         f"{options.get('values')!r}")  # fmt: skip
+    return values
+
+
+def _lam_at(options: dict) -> list[float]:
+    spec = options.get("lam_at")
+    if spec is None:
+        return []
+    return parse_range(spec, "linear", name="[task] lam_at", positive=True)
+
+
+def _neutral_bq(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
+    """lambda_c(Bq) at the point's v and chi by continuation in (Bq, lambda), and the critical
+    Bq at ``lam_at`` (:func:`vesicle.bifurcation.neutral_bq.neutral_curve_bq`)."""
+    c = neutral_curve_bq(physics, _bq_values(options), disc, lam_at=_lam_at(options),
+                         analysis=analysis(options), form=option_value(options, "form"),
+                         lam0=options.get("lam0"))  # fmt: skip
+    return c.to_dict()
+
+
 def _values(spec, points: int, name: str) -> list[float]:
     """``ellipsoid_map``'s ``psi``/``lams``: a list, or ``LOW:HIGH`` with ``points`` values."""
     if isinstance(spec, list):
@@ -361,6 +389,8 @@ def _neutral_incomplete(result: dict) -> str | None:
     """A neutral curve with points it could not trace is not done."""
     if not result.get("failed"):
         return None
+    if "plane" in result:  # neutral_bq's failures name what they miss
+        return "the curve stopped: " + "; ".join(f["error"] for f in result["failed"])
     where = [f"before chi = {f['chi']:.4g}: {f['error']}" for f in result["failed"]]
     return "the curve stopped: " + "; ".join(where)
 
@@ -383,6 +413,9 @@ TASKS = {
                     ("chi", "points", "jacobian", "xtol", "type_tol", "locate_type_change",
                      "orientation", "modes", "continuation", "form", "cusps"),
                     _neutral_incomplete),
+    "neutral_bq": Task(_neutral_bq, ("v", "chi"),
+                       ("values", "lam_at", "lam0", "form", "orientation", "modes", "jacobian"),
+                       _neutral_incomplete),
     "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
     "run": Task(_run, GRID_KEYS, ()),
 }  # fmt: skip
@@ -416,6 +449,13 @@ def _check_task(task: str, options: dict, grid: dict, points) -> None:
         for p in points:
             for x in values:
                 p.replace(**{name: x})
+    if task == "neutral_bq":
+        _bq_values(options)
+        _lam_at(options)
+        for p in points:
+            if not p.chi > 0:
+                raise ValueError(f"[grid] chi must be positive for task = 'neutral_bq', got "
+                                 f"{p.chi}")  # fmt: skip
     if task == "ellipsoid_map":
         for key in ("psi", "lams"):
             if key in options:
