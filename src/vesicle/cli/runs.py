@@ -21,7 +21,12 @@ from vesicle.cli.options import (
     make_physics,
     physics_options,
 )
-from vesicle.dynamics.integrators import INTEGRATORS, RUN_DEFAULTS, RunParameters
+from vesicle.dynamics.integrators import (
+    INTEGRATORS,
+    RUN_DEFAULTS,
+    VISCOUS_SOLVES,
+    RunParameters,
+)
 from vesicle.dynamics.simulation import SimulationError, load_parameters, simulate
 from vesicle.geometry.diagnostics import summarize
 from vesicle.geometry.surface import ShapeError
@@ -255,6 +260,15 @@ def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> Non
     show_default=True,
     help="ros2: linearly implicit in the bending stiffness (2 solves per step); "
     "bs3, heun: explicit (3 and 2 solves per step, step limited by bending stiffness).",
+)
+@click.option(
+    "--viscous-solve",
+    type=click.Choice(VISCOUS_SOLVES),
+    default=_default("viscous_solve"),
+    show_default=True,
+    help="With --bq > 0: each solve by GMRES preconditioned with a kept factorised system "
+    "(refreshed when it needs more than 8 iterations), or by the nested GMRES (the reference: "
+    "slower with a viscous membrane).",
 )
 @click.option(
     "--steady-tol",

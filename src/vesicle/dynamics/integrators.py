@@ -42,7 +42,8 @@ from vesicle.geometry.surface import Shape, ShapeError
 from vesicle.model.kinematics import area_volume_variations, rate_of_change
 from vesicle.model.parameters import Discretisation, Physics, SolverTolerances
 from vesicle.model.settings import VesicleDeprecationWarning
-from vesicle.solve.solver import FlowResult, solve_flow
+from vesicle.solve.factorised import FactorisedSystem, preconditioned_solve
+from vesicle.solve.solver import FlowResult, SolverError, VelocityTensionSolver, solve_flow
 from vesicle.sphere.transforms import resize, transform
 from vesicle.stokes.spectra import sphere_relaxation_rates
 
@@ -142,7 +143,19 @@ RUN_DEFAULTS = {
     "split_stress": False,  # also store S^B and S^V at saved steps (two more solves each)
     "save_fields": True,  # store the tension and the membrane velocity on the grid
     "checkpoint_every": 60.0,  # wall seconds between checkpoints
+    # a viscous membrane's solves (Bq > 0): GMRES preconditioned by a kept factorised system
+    # ("factorised", refreshed when it needs more than REFRESH_ITERATIONS iterations), or the
+    # nested GMRES of every other run ("nested", the reference; far slower with Bq: its inner
+    # operator is far from normal)
+    "viscous_solve": "factorised",
 }
+
+#: The ways of a viscous membrane's solves in time stepping (``RunParameters.viscous_solve``).
+VISCOUS_SOLVES = ("factorised", "nested")
+
+#: GMRES iterations of a preconditioned solve beyond which the kept factorised system is
+#: refreshed at the current shape and the solve repeated.
+REFRESH_ITERATIONS = 8
 
 _PHYSICS_KEYS = ("v", "lam", "chi", "flow", "bq")
 _DISCRETISATION_KEYS = ("grid", "degree", "n_rot", "backend", "method", "workers")
@@ -184,6 +197,7 @@ class RunParameters:
     split_stress: bool
     save_fields: bool
     checkpoint_every: float
+    viscous_solve: str
 
     def __init__(
         self,
@@ -251,6 +265,9 @@ class RunParameters:
             raise ValueError("dt_min must not exceed dt_max")
         if self.integrator not in INTEGRATORS:
             raise ValueError(f"integrator must be one of {INTEGRATORS}, got {self.integrator!r}")
+        if self.viscous_solve not in VISCOUS_SOLVES:
+            raise ValueError(f"viscous_solve must be one of {VISCOUS_SOLVES}, got "
+                             f"{self.viscous_solve!r}")  # fmt: skip
 
     # the physics and discretisation, read through
     v = property(lambda self: self.physics.v)
@@ -348,6 +365,9 @@ class StepState:
     corrections: dict = field(
         default_factory=lambda: {"area": 0.0, "volume": 0.0, "recentered": 0, "evaluations": 0}
     )
+    #: a viscous membrane's preconditioner: the coefficients of the shape whose system the
+    #: integrator keeps factorised (None: none kept)
+    anchor: np.ndarray | None = None
 
     def to_checkpoint(self) -> dict:
         ck = {
@@ -367,6 +387,8 @@ class StepState:
         }
         if self.sigma_in is not None:
             ck["sigma_in"] = self.sigma_in
+        if self.anchor is not None:
+            ck["preconditioner_shape"] = self.anchor
         return ck
 
     @classmethod
@@ -386,6 +408,8 @@ class StepState:
             previous_error=float(ck.get("previous_error", 1.0)),
             last_dt=float(ck.get("last_dt", 0.0)),
             stopped=str(ck.get("stopped", "")),
+            anchor=(np.asarray(ck["preconditioner_shape"]) if "preconditioner_shape" in ck
+                    else None),
         )
 
 
@@ -401,6 +425,50 @@ class Integrator:
         self.previous_error = 1.0  # of the last accepted step, for the PI controller
         self.start_up = False  # set for a run's first step (see _next_dt)
         self.solves = 0  # velocity-tension solves made by :meth:`evaluate`
+        # a viscous membrane's solves: preconditioned by the factorised system of the shape
+        # ``anchor`` (its coefficients: what a checkpoint keeps, so that a resumed run
+        # factorises the same shape and repeats the same iterations)
+        self.preconditioned = params.physics.bq > 0 and params.viscous_solve == "factorised"
+        self.anchor: np.ndarray | None = None
+        self._system = None
+        self.factorisations = 0
+
+    def restore_anchor(self, anchor: np.ndarray | None) -> None:
+        """Factorise the shape of a checkpoint's ``anchor`` (a resumed run), or forget it."""
+        self._system, self.anchor = None, None
+        if anchor is not None and self.preconditioned:
+            self._factorise(np.asarray(anchor))
+
+    def _factorise(self, coefficients: np.ndarray) -> None:
+        shape = Shape(coefficients, self.params.grid)
+        solver = VelocityTensionSolver(shape, self.params.physics, self.tolerances, None, None,
+                                       self.params.discretisation)  # fmt: skip
+        self._system = FactorisedSystem(solver)
+        self.anchor = np.array(coefficients, copy=True)
+        self.factorisations += 1
+        log.debug("factorised the system of a viscous membrane (%d so far)", self.factorisations)
+
+    def _preconditioned_flow(self, shape: Shape, sigma0) -> FlowResult:
+        """The solve of a viscous membrane: GMRES preconditioned by the kept factorised system
+        (its shape refreshed to this one when GMRES needs more than
+        :data:`REFRESH_ITERATIONS`), to the tighter of the two solve tolerances on the whole
+        system's residual.  An exact sphere (not factorisable) takes the nested solve."""
+        solver = VelocityTensionSolver(shape, self.params.physics, self.tolerances, None, None,
+                                       self.params.discretisation)  # fmt: skip
+        if solver.is_sphere:
+            return solve_flow(shape, self.params.physics, tolerances=self.tolerances,
+                              discretisation=self.params.discretisation, sigma0=sigma0)  # fmt: skip
+        rtol = min(self.tolerances.schur, self.tolerances.inner)
+        if self._system is not None:
+            flow = preconditioned_solve(solver, self._system, rtol, REFRESH_ITERATIONS)
+            if flow.converged:
+                return flow
+        self._factorise(shape.coefficients)
+        flow = preconditioned_solve(solver, self._system, rtol, self.tolerances.max_outer)
+        if not flow.converged:
+            raise SolverError(f"the preconditioned solve of a viscous membrane missed rtol "
+                              f"{rtol:.0e} at its own shape's factorisation", flow)  # fmt: skip
+        return flow
 
     def _next_dt(self, dt: float, err: float) -> float:
         """PI step-size control (Gustafsson): damps the accept/reject cycling that plain
@@ -424,6 +492,9 @@ class Integrator:
     def evaluate(self, coefficients: np.ndarray, sigma0: np.ndarray | None) -> Evaluation:
         shape = Shape(coefficients, self.params.grid)
         self.solves += 1
+        if self.preconditioned:
+            flow = self._preconditioned_flow(shape, sigma0)
+            return Evaluation(shape, rate_of_change(shape, flow.u, self.params.degree), flow)
         flow = solve_flow(
             shape,
             self.params.physics,

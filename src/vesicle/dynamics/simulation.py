@@ -149,6 +149,7 @@ class _Checkpointer:
 
     def __call__(self, run: RunData, state: StepState, force: bool = False) -> None:
         state.solves = self.integ.solves  # the integrator counts; the state carries it
+        state.anchor = self.integ.anchor  # and keeps the preconditioner's shape
         if self.out is None or not (force or time.perf_counter() - self.last >= self.every):
             return
         run.checkpoint = state.to_checkpoint()
@@ -191,6 +192,7 @@ def simulate(
         for key in ("t_end", "periods", "steady_tol"):  # the stop criteria may change
             run.parameters[key] = getattr(params, key)
         state.stopped = ""
+        integ.restore_anchor(state.anchor)  # a viscous membrane's preconditioner, as it was
         current = integ.evaluate(state.coefficients, state.sigma_in)
         log.info("resuming at t=%.6f (step %d)", state.t, state.steps)
     else:

@@ -67,6 +67,8 @@ _DESCRIPTIONS = {
     "perturb": "random perturbation of the start: its largest radius change over the mean radius",
     "seed": "seed of the random perturbation",
     "integrator": "ros2, a Rosenbrock-W method (ros34pw2, ...) or an explicit pair (bs3, heun)",
+    "viscous_solve": 'Bq > 0: "factorised" (GMRES preconditioned by a kept factorised system) '
+                     'or "nested" (the reference)',
     "rtol": "local error per step relative to the mean radius, in (0, 1)",
     "dt0": "first time step (units of t_end)",
     "dt_min": "smallest time step before the run stops (units of t_end)",
