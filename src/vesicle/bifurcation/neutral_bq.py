@@ -15,7 +15,8 @@ differentiated in it, :meth:`~vesicle.steady.problem.SteadyProblem.parameter_rat
 2. **The curve continued** in ``Bq`` by pseudo-arclength (:func:`codim2.hopf_curve` /
    ``fold_curve``), landing on each requested ``Bq`` (a point there is corrected with ``Bq``
    held); at a located Bogdanov–Takens point the other curve is continued on from it (at most
-   :data:`SWITCHES` times).  A cusp or the box ends it.
+   :data:`SWITCHES` times).  The box ends it; with ``lam_at`` it goes on past the last requested
+   ``Bq`` (up to :data:`FAR_BQ`) until it is below the lowest of those lambdas.
 3. **The critical Bq at each requested lambda** (``lam_at``): where the curve crosses that
    ``lambda``, the point solved for on its augmented system with ``lambda`` held and ``Bq``
    free, from the curve's points either side.
@@ -55,6 +56,10 @@ log = logging.getLogger(__name__)
 
 #: Switches between the Hopf and the fold curve at BT points along one trace.
 SWITCHES = 3
+
+#: With ``lam_at``, the curve goes on past the last requested Bq (up to this Bq) until it is
+#: below the lowest of those lambdas.
+FAR_BQ = 50.0
 
 _FAILURES = (NewtonError, ShapeError, SolverError, RuntimeError, ValueError,
              np.linalg.LinAlgError)  # fmt: skip
@@ -105,8 +110,9 @@ class BqCurve:
             "leading_order": {
                 "lambda_c_bq0": misbah_critical_lambda(self.physics.v),
                 "slope": -16.0 / 23.0,
-                "note": "lambda_c,LO(v) - 16 Bq/23: the small-deformation theory's "
-                        "lambda + 16 Bq/23 held at its lambda_c (valid as v -> 1)"},
+                "note": "the small-deformation theory's effective viscosity ratio lambda + "
+                        "16 Bq/23: lambda_c(Bq) = lambda_c(0) - 16 Bq/23 as v -> 1 "
+                        "(lambda_c_bq0: its own lambda_c,LO(v))"},
         })  # fmt: skip
 
 
@@ -128,13 +134,14 @@ def _seed(eq: SteadyEquations, physics: Physics, disc: Discretisation,
     return codim2.locate_fold(eq, x, p, free=1, settings=settings)
 
 
-def _continue(eq, start, kind: str, bounds, landing, max_points, settings, say) -> codim2.Curve:
+def _continue(eq, start, kind: str, bounds, landing, max_points, settings, say,
+              stop=None) -> codim2.Curve:  # fmt: skip
     def progress(q: codim2.CurvePoint) -> None:
         say({"curve": kind, **_point_dict(q)})
 
     run = codim2.hopf_curve if kind == "hopf" else codim2.fold_curve
     return run(eq, start, direction=(1.0, 0.0), bounds=bounds, max_points=max_points,
-               settings=settings, progress=progress, landing=landing)  # fmt: skip
+               settings=settings, progress=progress, landing=landing, stop=stop)  # fmt: skip
 
 
 def _at_bq(curves: Sequence[codim2.Curve], bq: float) -> dict | None:
@@ -264,7 +271,13 @@ def neutral_curve_bq(
                           f"(residual {seed.residual:.2e})")  # fmt: skip
     say({"seed": _point_dict(seed)})
     margin = 1e-9 * max(1.0, bqs[-1])
-    bounds = [[bqs[0] - margin, bqs[-1] + margin], [lo, hi]]
+    # with lam_at, on past the last Bq until the curve is below the lowest of them
+    far = max(bqs[-1], FAR_BQ) if lams else bqs[-1]
+    bounds = [[bqs[0] - margin, far + margin], [lo, hi]]
+
+    def stop(q: codim2.CurvePoint, found) -> bool:
+        return bool(lams) and q.p[0] >= bqs[-1] and q.p[1] < min(lams)
+
     curves: list[codim2.Curve] = []
     special: list[dict] = []
     failed: list[dict] = []
@@ -272,7 +285,8 @@ def neutral_curve_bq(
     kind = seed.kind
     for _ in range(SWITCHES + 1):
         try:
-            curve = _continue(eq, start_point, kind, bounds, bqs, max_points, settings, say)
+            curve = _continue(eq, start_point, kind, bounds, bqs, max_points, settings, say,
+                              stop)  # fmt: skip
         except _FAILURES as err:
             failed.append({"bq": None, "error": f"the {kind} curve from Bq = "
                            f"{float(_start_p(start_point)[0]):g} stopped: {err}"})  # fmt: skip
@@ -285,7 +299,7 @@ def neutral_curve_bq(
                             "residual": float(s.residual), "on": curve.kind})  # fmt: skip
             if s.kind == "bt" and s.located and switch is None:
                 switch = s
-        if curve.end == "bounds" or switch is None:
+        if curve.end in ("bounds", "stopped") or switch is None:
             break
         kind = "fold" if curve.kind == "hopf" else "hopf"
         start_point = switch

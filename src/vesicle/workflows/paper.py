@@ -933,6 +933,12 @@ ITEMS: list[Item] = [
          uses=("fig7",), cost=50),
     Item("fig23", "Figures 23, 24", "tilted starts: orbits of the principal axes", _fig23,
          cost=430),
+    # beyond the paper (issue 42): not one of its figures, and nothing of it is compared with it
+    Item("membrane", "Beyond the paper: membrane viscosity",
+         "lambda_c against the Boussinesq number Bq by continuation in (Bq, lambda), the "
+         "critical Bq at lambda = 1, and time-dependent runs either side of the curve",
+         _study_item("membrane-viscosity", "membrane-viscosity-runs",
+                     "membrane-viscosity-check")),
 ]
 
 
@@ -1239,6 +1245,15 @@ CAPTIONS = {
         "our fitted λ_c (the paper states the exponent, not the constant). Periods in units of "
         "μ_out a³/κ; χT in units of 1/γ̇."),
     "periods-high-shear.png": "Periods in units of μ_out a³/κ; χT in units of 1/γ̇.",
+    "membrane-viscosity.png": (
+        "Not a figure of the paper (its model has no membrane viscosity): λ_c against the "
+        "Boussinesq number Bq = η_m/(μ_out a), continued in (Bq, λ) at fixed v and χ; the "
+        "dotted lines are the leading-order shift λ_c(0) − 16 Bq/23 (docs/reference/"
+        "membrane-viscosity.md §4), approached only as v → 1."),
+    "membrane-viscosity-check.png": (
+        "The curve at the runs' own resolution, with each time-dependent run at its (Bq, λ) "
+        "marked by the regime its analysis found: TT below the curve, TR above."),
+    "membrane-viscosity-runs.png": "Each run's period-averaged S_xz. " + _STRESS_UNITS,
     "relaxation.png": (
         "Dash-dot: the envelope of the paper's decay rate at this N (Table 1, SPEC §14), "
         "started from the fit's amplitude at the start of the fitted window."),

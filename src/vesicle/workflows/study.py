@@ -70,7 +70,7 @@ THEORIES: dict[str, Callable[[float, float, float], dict]] = {
 
 _STUDY_KEYS = {"title", "figure", "x", "xscale", "y", "curves", "theory", "cost", "notes",
                "overlay", "fit"}  # fmt: skip
-_FIGURES = ("branches", "runs", "maps", "series")
+_FIGURES = ("branches", "runs", "maps", "series", "neutral_bq")
 
 #: Marker of each regime in the figures of runs.
 _REGIME_MARKERS = {"TT": "o", "TR": "^", "TU": "s"}
@@ -214,6 +214,8 @@ def _get(point: dict, key: str):
 
 
 def _x(point: dict, study: dict) -> float:
+    if study["x"] == "bq":  # results from before the membrane's viscosity have no bq: 0
+        return float(point.get("bq", (point.get("physics") or {}).get("bq", 0.0)))
     return excess_area(point["v"]) if study["x"] == "Delta" else float(point[study["x"]])
 
 
@@ -358,6 +360,8 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
         return _plot_maps(store, study, folder)
     if study.get("figure") == "series":
         return _plot_series(store, study, folder)
+    if study.get("figure") == "neutral_bq":
+        return _plot_neutral_bq(store, study, folder)
     rows = study_rows(store, study)
     table = folder / f"{study['name']}.csv"
     with text_written_atomically(table) as f:
@@ -417,6 +421,106 @@ def _theory_handle(name: str):
 
     label = THEORY_LABELS.get(name, f"leading-order theory ({name}, dotted): valid as v → 1")
     return Line2D([], [], color="0.3", ls=":", lw=1.0, label=label)
+
+
+def neutral_bq_rows(store: SweepStore) -> list[dict]:
+    """One row per requested Bq of every finished (or stopped) ``neutral_bq`` curve and one
+    per critical Bq: ``kind`` ("lambda_c" or "critical_bq"), v, chi, bq, lambda, the
+    bifurcation, ``located`` (solved to tolerance; else an estimate) and ``other_unstable``."""
+    rows = []
+    for record in store.records.values():
+        r = record.get("result") or {}
+        if "plane" not in r:
+            continue
+        for p in r.get("points", []):
+            rows.append({"kind": "lambda_c", "v": r["v"], "chi": r["chi"], "bq": p["bq"],
+                         "lam": p["lambda_c"], "bifurcation": p["bifurcation"],
+                         "omega_R": p.get("omega_R"), "located": p["located"],
+                         "other_unstable": p.get("other_unstable"),
+                         "note": p.get("note", p.get("estimate", ""))})  # fmt: skip
+        for q in r.get("critical_bq", []):
+            rows.append({"kind": "critical_bq", "v": r["v"], "chi": r["chi"], "bq": q["bq"],
+                         "lam": q["lam"], "bifurcation": q["bifurcation"],
+                         "omega_R": q.get("omega_R"), "located": q["located"],
+                         "other_unstable": q.get("other_unstable"), "note": ""})  # fmt: skip
+    return sorted(rows, key=lambda r: (r["v"], r["chi"], r["kind"], r["bq"]))
+
+
+def _plot_neutral_bq(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path]:
+    """``lambda_c(Bq)`` of each (v, chi) curve: the continued curve (line), the requested Bq
+    (filled: located; open: an estimate), the critical Bq at each requested lambda (star),
+    the leading-order line ``lambda_c,LO(v) - 16 Bq/23`` (dotted); with an ``overlay`` study of
+    runs in the same folder, each run at its (Bq, lambda) marked by its regime."""
+    from vesicle.plots.runs import _figure, _save
+
+    rows = neutral_bq_rows(store)
+    table = folder / f"{study['name']}.csv"
+    with text_written_atomically(table) as f:
+        writer = csv.DictWriter(f, fieldnames=["kind", "v", "chi", "bq", "lam", "bifurcation",
+                                               "omega_R", "located", "other_unstable", "note"])
+        writer.writeheader()
+        writer.writerows(rows)
+    fig = _figure((7.6, 5.4))
+    ax = fig.subplots(1, 1)
+    results = sorted((rec["result"] for rec in store.records.values()
+                      if "plane" in (rec.get("result") or {})),
+                     key=lambda r: (-r["v"], r["chi"]))  # fmt: skip
+    bq_max = max([p["bq"] for r in results for p in r.get("points", [])] + [1.0])
+    for k, r in enumerate(results):
+        color = f"C{k}"
+        for c in r.get("curves", []):
+            pts = c["points"]
+            ax.plot([p["bq"] for p in pts], [p["lambda_c"] for p in pts], color=color, lw=1.2,
+                    label=(rf"$v$ = {r['v']:g}, $\chi$ = {r['chi']:g}"
+                           if c is r["curves"][0] else None))  # fmt: skip
+        got = [p for p in r.get("points", []) if p.get("lambda_c") is not None]
+        for located, face in ((True, color), (False, "white")):
+            sel = [p for p in got if bool(p["located"]) is located]
+            ax.scatter([p["bq"] for p in sel], [p["lambda_c"] for p in sel], s=22,
+                       facecolor=face, edgecolor=color, zorder=3)  # fmt: skip
+        for q in r.get("critical_bq", []):
+            ax.scatter([q["bq"]], [q["lam"]], marker="*", s=110, color=color, edgecolor="k",
+                       lw=0.5, zorder=5)  # fmt: skip
+    for k, r in enumerate(results):  # the leading-order shift from the curve's own Bq = 0
+        start = next((p for p in r.get("points", []) if p["bq"] == 0.0 and p["located"]), None)
+        if start is None:
+            continue
+        b = np.linspace(0.0, bq_max, 50)
+        line = start["lambda_c"] + r["leading_order"]["slope"] * b
+        keep = line > 0
+        ax.plot(b[keep], line[keep], color=f"C{k}", ls=":", lw=1.0)
+    extra = [_note_handle("filled: located (augmented system converged); open: an estimate"),
+             _note_handle("★ critical Bq at the requested λ (λ held, Bq solved for)"),
+             _note_handle("dotted: λ_c(0) − 16 Bq/23, the leading-order shift (as v → 1)")]
+    regimes = set()
+    overlay = study.get("overlay")
+    if overlay and (folder / f"{overlay}.h5").exists():  # runs either side of the curve
+        other, _ = load_study(overlay, study.get("quick", False))
+        runs = study_rows(SweepStore.read(folder / f"{overlay}.h5"), {**other, "x": "bq"})
+        for regime, marker in _REGIME_MARKERS.items():
+            sel = [r for r in runs if r["regime"] == regime]
+            ax.scatter([r["bq"] for r in sel], [r["lam"] for r in sel], marker=marker, s=40,
+                       color="0.85", edgecolor="k", lw=0.6, zorder=6)  # fmt: skip
+        other_regimes = [r for r in runs if r["regime"] not in _REGIME_MARKERS]
+        ax.scatter([r["bq"] for r in other_regimes], [r["lam"] for r in other_regimes],
+                   marker="x", s=40, color="k", zorder=6)  # fmt: skip
+        if other_regimes:
+            extra.append(_note_handle("x: a run whose regime was not determined"))
+        regimes = {r["regime"] for r in runs}
+        extra.append(_note_handle("markers: time-dependent runs, by regime (same resolution)"))
+    extra += _regime_handles(regimes)
+    ax.set_xlabel(r"Boussinesq number Bq = $\eta_m/(\mu_{out} a)$")
+    ax.set_ylabel(r"critical viscosity ratio $\lambda_c$")
+    ax.set_ylim(bottom=0.0)
+    ax.grid(alpha=0.3)
+    _legend(fig, [ax], extra)
+    d = store_discretisation(store)
+    label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
+             + (", quick" if study.get("quick") else ""))  # fmt: skip
+    fig.suptitle(f"{study.get('title', study['name'])}\n({label})", fontsize="small")
+    figure = _save(fig, folder / f"{study['name']}.png", 120)
+    log.info("wrote %s and %s", figure, table)
+    return figure, table
 
 
 def _runs_dir(store: SweepStore) -> Path:

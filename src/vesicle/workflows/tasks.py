@@ -363,7 +363,7 @@ def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) 
     run = simulate(params, out=path, resume=resume)
     return stamped({"physics": physics.to_dict(),
             "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
-            "chi": physics.chi, **summarize(run)})  # fmt: skip
+            "chi": physics.chi, "bq": physics.bq, **summarize(run)})  # fmt: skip
 
 
 @dataclass(frozen=True)
