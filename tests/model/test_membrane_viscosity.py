@@ -405,3 +405,24 @@ def test_stability_eigenvalues_approach_the_quasi_spherical_drag_as_v_goes_to_1(
     errors = np.array(errors)
     assert np.all(np.abs(errors[1]) < 0.002)  # measured 0.0015, 0.0010
     assert np.all(np.abs(errors[1]) < 0.35 * np.abs(errors[0]))  # 1 - v quartered: 0.26, 0.25
+
+
+def test_tt_inclination_approaches_that_of_the_effective_viscosity_ratio_as_v_goes_to_1():
+    """The leading-order theory sees the membrane's viscosity only through lam + 16 Bq/23
+    (docs/reference/membrane-viscosity.md §4): psi(lam, Bq) - psi(lam + 16 Bq/23, 0), relative
+    to the effect of Bq itself, psi(lam, 0) - psi(lam, Bq), must vanish as v -> 1.  lam = 1,
+    Bq = 2, chi = 1, N = 4 on 16x32.  Measured: -0.219, -0.0985, -0.0505, -0.0253, -0.0101 at
+    v = 0.95, 0.98, 0.99, 0.995, 0.998 (like 1 - v)."""
+    from vesicle.bifurcation.branch import reach
+
+    d = vs.Discretisation(grid=16, degree=4)
+    lam, bq = 1.0, 2.0
+    rel = []
+    for v in (0.99, 0.998):
+        viscous = reach(vs.Physics(v=v, lam=lam, chi=1.0, bq=bq), d).psi
+        effective = reach(vs.Physics(v=v, lam=lam + 16.0 * bq / 23.0, chi=1.0), d).psi
+        inviscid = reach(vs.Physics(v=v, lam=lam, chi=1.0), d).psi
+        assert inviscid - viscous > 0.02  # Bq turns the vesicle towards the flow
+        rel.append((viscous - effective) / (inviscid - viscous))
+    assert abs(rel[1]) < 0.015
+    assert abs(rel[1]) < 0.3 * abs(rel[0])  # 1 - v divided by 5: 0.2
