@@ -72,3 +72,35 @@ def test_bad_inputs_are_refused_before_any_work(kwargs, match):
     physics = args.pop("physics", vs.Physics())
     with pytest.raises(ValueError, match=match):
         neutral_curve_bq(physics, bq, DISC, **args)
+
+
+def test_an_interrupted_curve_keeps_what_it_found(monkeypatch, tmp_path):
+    """Ctrl-C during the continuation: the points of the curve under way come with the
+    interruption (``complete: false``, no ``points``), and ``vesicle neutral-bq --out`` writes
+    them before it exits with 130."""
+    from click.testing import CliRunner
+
+    import vesicle.bifurcation.neutral_bq as nbq
+    from vesicle.cli import main
+
+    def interrupted(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points,
+                    lam0, say, *rest):  # fmt: skip
+        say({"seed": {"bq": 0.0, "lambda_c": 8.0}})
+        say({"curve": "hopf", "bq": 0.5, "lambda_c": 7.5, "located": True})
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(nbq, "_trace", interrupted)
+    with pytest.raises(nbq.BqCurveInterrupted) as err:
+        neutral_curve_bq(vs.Physics(), [0.0, 1.0], DISC)
+    partial = err.value.partial
+    assert partial["complete"] is False and "points" not in partial
+    assert partial["seed"] == {"bq": 0.0, "lambda_c": 8.0}
+    (curve,) = partial["curves"]
+    assert curve["end"] == "interrupted" and curve["points"][0]["bq"] == 0.5
+    out = tmp_path / "c.json"
+    r = CliRunner().invoke(main, ["neutral-bq", "--bq", "0,1", "--degree", "4", "--grid", "16",
+                                  "--out", str(out)])  # fmt: skip
+    assert r.exit_code == 130, r.output
+    written = json.loads(out.read_text())
+    assert written["interrupted"] and written["curves"][0]["points"][0]["lambda_c"] == 7.5
+    assert written["physics"]["v"] == 0.95 and "vesicle_version" in written

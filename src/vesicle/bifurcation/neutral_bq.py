@@ -50,7 +50,7 @@ from vesicle.model.theory import effective_viscosity_ratio, misbah_critical_lamb
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError
 
-__all__ = ["BqCurve", "leading_order_lambda_c", "neutral_curve_bq"]
+__all__ = ["BqCurve", "BqCurveInterrupted", "leading_order_lambda_c", "neutral_curve_bq"]
 
 log = logging.getLogger(__name__)
 
@@ -79,6 +79,18 @@ def _point_dict(q: codim2.CurvePoint, located: bool | None = None) -> dict:
             "omega_R": float(q.omega) if q.kind == "hopf" else 0.0,
             "located": bool(q.converged if located is None else located),
             "residual": float(q.residual), "other_unstable": bool(q.other_unstable)}  # fmt: skip
+
+
+class BqCurveInterrupted(KeyboardInterrupt):
+    """Ctrl-C (or SIGTERM, which the command line turns into one) during
+    :func:`neutral_curve_bq`; ``partial`` is what was found: ``{"complete": False,
+    "interrupted": True, "seed", "curves" (each ``{"kind", "end", "points"}``, the one under way
+    with ``end = "interrupted"``), "special_points", "failed"}`` (no ``"points"``: nothing is
+    picked from an unfinished curve)."""
+
+    def __init__(self, partial: dict):
+        super().__init__("the curve in (Bq, lambda) was interrupted")
+        self.partial = partial
 
 
 @dataclass
@@ -257,11 +269,41 @@ def neutral_curve_bq(
     settings = settings or DEFAULT_SETTINGS
     t0 = time.perf_counter()
 
+    under_way: list[dict] = []  # the points of the curve being continued
+    seen: dict = {}
+
     def say(d: dict) -> None:
         log.info("%s", d)
+        if "seed" in d:
+            seen["seed"] = d["seed"]
+        if "curve" in d:
+            under_way.append({k: x for k, x in d.items() if k != "curve"})
         if progress is not None:
             progress(d)
 
+    curves: list[codim2.Curve] = []
+    special: list[dict] = []
+    failed: list[dict] = []
+    try:
+        return _trace(physics, disc, bqs, lams, analysis, form, (lo, hi), settings, max_points,
+                      lam0, say, under_way, curves, special, failed, t0)  # fmt: skip
+    except KeyboardInterrupt as err:
+        done = [{"kind": c.kind, "end": c.end, "points": [_point_dict(q) for q in c.points]}
+                for c in curves]  # fmt: skip
+        if under_way:
+            done.append({"kind": "under way", "end": "interrupted", "points": list(under_way)})
+        raise BqCurveInterrupted({
+            "complete": False, "interrupted": True, "method": "codim2", "plane": ["bq", "lam"],
+            "v": physics.v, "chi": physics.chi, "bq_requested": bqs, "lam_at": lams,
+            "seed": seen.get("seed"), "curves": done, "special_points": special, "failed": failed,
+            "seconds": time.perf_counter() - t0}) from err  # fmt: skip
+
+
+def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points, lam0, say,
+           under_way, curves, special, failed, t0) -> BqCurve:  # fmt: skip
+    """The work of :func:`neutral_curve_bq` (its lists filled as it goes, for an
+    interruption)."""
+    lo, hi = lam_range
     start = physics.replace(bq=bqs[0], lam=max(lo, 1.0))
     eq = SteadyEquations(start, disc, modes=analysis.modes, jacobian=analysis.jacobian,
                          form=form, plane=("bq", "lam"))  # fmt: skip
@@ -278,12 +320,10 @@ def neutral_curve_bq(
     def stop(q: codim2.CurvePoint, found) -> bool:
         return bool(lams) and q.p[0] >= bqs[-1] and q.p[1] < min(lams)
 
-    curves: list[codim2.Curve] = []
-    special: list[dict] = []
-    failed: list[dict] = []
     start_point: codim2.CurvePoint | codim2.SpecialPoint = seed
     kind = seed.kind
     for _ in range(SWITCHES + 1):
+        under_way.clear()
         try:
             curve = _continue(eq, start_point, kind, bounds, bqs, max_points, settings, say,
                               stop)  # fmt: skip
@@ -292,6 +332,7 @@ def neutral_curve_bq(
                            f"{float(_start_p(start_point)[0]):g} stopped: {err}"})  # fmt: skip
             break
         curves.append(curve)
+        under_way.clear()
         switch = None
         for s in curve.special:
             special.append({"kind": s.kind, "bq": float(s.point.p[0]),

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import json
+
 import click
 
-from vesicle.bifurcation.neutral_bq import neutral_curve_bq
-from vesicle.cli.base import check_output, command_line, fail, main
+from vesicle.bifurcation.neutral_bq import BqCurveInterrupted, neutral_curve_bq
+from vesicle.cli.base import check_output, command_line, fail, interruptible, main
 from vesicle.cli.options import (
     config_option,
     discretisation_options,
@@ -15,6 +17,7 @@ from vesicle.cli.options import (
     task_option,
 )
 from vesicle.cli.steady import _configure, _echo_progress, _emit_json
+from vesicle.io.files import stamped, write_text_atomically
 from vesicle.model.settings import StabilitySettings
 from vesicle.ranges import parse_range
 from vesicle.solve.solver import SolverError
@@ -44,6 +47,8 @@ from vesicle.steady.newton import NewtonError
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
+@interruptible(lambda p: f"what was found is in {p['out']} (complete: false)" if p.get("out")
+               else "nothing was kept (give --out to keep what an interrupted curve found)")
 def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, modes, jacobian,
                        out, overwrite, as_json, config_path, **options) -> None:  # fmt: skip
     """Critical viscosity ratio against the membrane's Boussinesq number, lambda_c(Bq), at
@@ -73,6 +78,13 @@ def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, m
                                  analysis=StabilitySettings(orientation, modes, jacobian),
                                  form=form, lam_range=(lam_min, 100.0),
                                  progress=_echo_progress)  # fmt: skip
+    except BqCurveInterrupted as err:  # what was found is kept, then the interruption goes on
+        if out is not None:
+            write_text_atomically(out, json.dumps(stamped(
+                {**err.partial, "command": command_line(ctx)},
+                physics={k: x for k, x in physics.to_dict().items() if k not in ("lam", "bq")},
+                discretisation=disc), indent=1))  # fmt: skip
+        raise
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))
     result = {**curve.to_dict(), "command": command_line(ctx)}
