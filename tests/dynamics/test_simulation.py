@@ -85,6 +85,11 @@ def test_a_viscous_membranes_run_resumes_exactly_with_its_preconditioner(tmp_pat
     resumed = simulate(load_parameters(partial), resume=partial)
     np.testing.assert_array_equal(resumed.coefficients, straight.coefficients)
     np.testing.assert_array_equal(resumed.series["S_xz"], straight.series["S_xz"])
+    # the membrane's viscous part of S is a series of viscous runs only
+    part = straight.series["S_membrane"]
+    assert part.shape == straight.series["S"].shape and np.all(np.isfinite(part))
+    assert 0 < np.abs(part[-1]).max() < np.abs(straight.series["S"][-1]).max()
+    assert "S_membrane" not in simulate(params(t_end=0.02)).series
     nested = simulate(viscous.replace(viscous_solve="nested"))
     scale = np.abs(straight.coefficients).max()
     assert np.abs(nested.coefficients - straight.coefficients).max() < 1e-5 * scale

@@ -35,7 +35,15 @@ from vesicle.geometry.diagnostics import (
     summarize,
 )
 from vesicle.geometry.surface import Shape
-from vesicle.io.files import OPTIONAL_SERIES, SERIES, RunData, series_dtype, series_shape, write_run
+from vesicle.io.files import (
+    OPTIONAL_SERIES,
+    SERIES,
+    VISCOUS_SERIES,
+    RunData,
+    series_dtype,
+    series_shape,
+    write_run,
+)
 from vesicle.solve.solver import solve_flow
 
 __all__ = ["SimulationError", "load_parameters", "simulate", "summarize"]
@@ -56,7 +64,8 @@ def load_parameters(run: RunData) -> RunParameters:
 
 def _new_run(params: RunParameters, shape: Shape) -> RunData:
     parameters = params.to_dict()
-    keep = [k for k in SERIES if params.split_stress or k not in OPTIONAL_SERIES]
+    keep = [k for k in SERIES if (params.split_stress or k not in OPTIONAL_SERIES)
+            and (params.bq > 0 or k not in VISCOUS_SERIES)]  # fmt: skip
     series = {
         k: np.zeros((0, *series_shape(k, params.degree)), dtype=series_dtype(k)) for k in keep
     }
@@ -115,7 +124,11 @@ def _record(run: RunData, ev: Evaluation, state: StepState, dt: float, params: R
     }
     if s_bending is None:
         del row["S_bending"], row["S_flow"]
-    expected = SERIES.keys() - (set() if s_bending is not None else set(OPTIONAL_SERIES))
+    if params.bq > 0:  # the membrane's viscous part of S (the moment of its load)
+        row["S_membrane"] = (ev.flow.viscous.S if ev.flow.viscous is not None
+                             else np.zeros((3, 3)))  # fmt: skip
+    expected = (SERIES.keys() - (set() if s_bending is not None else set(OPTIONAL_SERIES))
+                - (set() if params.bq > 0 else set(VISCOUS_SERIES)))  # fmt: skip
     if row.keys() != expected:  # the one list of saved series is io.SERIES
         raise RuntimeError(f"saved series {sorted(row)} differ from io.SERIES")
     for key in sorted(set(row) | set(run.series)):

@@ -60,6 +60,7 @@ __all__ = [
     "FORMAT_VERSION",
     "OPTIONAL_SERIES",
     "SERIES",
+    "VISCOUS_SERIES",
     "RunData",
     "content_checksum",
     "open_file",
@@ -92,6 +93,8 @@ SERIES = {
     "S": ((3, 3), "specific particle stress (SPEC §11)", "1"),
     "S_bending": ((3, 3), "bending part S^B of S (nan unless asked for)", "1"),
     "S_flow": ((3, 3), "flow-resistance part S^V of S (nan unless asked for)", "1"),
+    "S_membrane": ((3, 3), "the membrane viscosity's part of S: the moment of its viscous load "
+                   "(runs with Bq > 0 only)", "1"),
     "S_xz": ((), "specific shear stress", "1"),
     "N1": ((), "first normal stress difference S_xx - S_zz (scaled by |chi|)", "1"),
     "N2": ((), "second normal stress difference S_zz - S_yy (scaled by |chi|)", "1"),
@@ -106,6 +109,9 @@ SERIES = {
 
 #: Series stored only when the run asks for them (``split_stress``).
 OPTIONAL_SERIES = ("S_bending", "S_flow")
+
+#: Series stored only by runs of a viscous membrane (``Bq > 0``).
+VISCOUS_SERIES = ("S_membrane",)
 
 #: Fields on the grid per saved step (``save_fields``): dimensions after ``t``, long name, units.
 #: ``theta`` and ``phi`` are the grid's colatitudes (Gauss-Legendre) and longitudes.
