@@ -44,9 +44,13 @@ def test_every_shipped_study_is_a_valid_sweep(tmp_path, quick):
     for name in studies:
         study, tables = load_study(name, quick)
         config = read_sweep_config(_write_config(study, tables, tmp_path))
-        kinds = {"runs": "run", "maps": "ellipsoid_map", "branches": "branch", "series": "run"}
+        kinds = {"runs": "run", "maps": "ellipsoid_map", "branches": "branch", "series": "run",
+                 "neutral_bq": "neutral_bq"}  # fmt: skip
         assert config.task == kinds[study["figure"]] and config.points
-        assert config.discretisation.degree == (4 if quick else 8)
+        # the membrane viscosity's check compares runs with the curve at N = 4 on 16x32 (runs
+        # of a viscous membrane at N = 8 cost 40-70 min each: their own file's header)
+        low = name in ("membrane-viscosity-check", "membrane-viscosity-runs")
+        assert config.discretisation.degree == (4 if quick or low else 8)
         assert study["cost"]
 
 

@@ -29,9 +29,9 @@ from vesicle.steady.newton import NewtonError
 @click.option("--bq", "bq_text", default="0:10:1", show_default=True,
               help="The Boussinesq numbers to report: START:STOP[:STEP] or a comma list "
               "(>= 0); the curve is continued from the first to the last.")  # fmt: skip
-@click.option("--lam-at", "lam_at", default="", show_default=False,
+@click.option("--lam-at", "lam_at", default=None,
               help="Viscosity ratios (comma list) at which to solve for the critical Bq, "
-              "e.g. 1.")  # fmt: skip
+              "e.g. 1 [default: none].")  # fmt: skip
 @click.option("--lam-min", type=float, default=0.05, show_default=True,
               help="The curve is followed down to this lambda.")
 @click.option("--lam0", type=float, default=None,

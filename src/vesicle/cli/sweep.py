@@ -61,8 +61,8 @@ def _progress_printer():
                "command again to continue")
 def sweep_command(config_path, workers, scheduler, show_status, show_table, as_json,
                   as_csv) -> None:  # fmt: skip
-    """Run a task (tt, stability, critical, branch, neutral, ellipsoid_map, run) over the
-    points of CONFIG.toml, resumably.
+    """Run a task (tt, stability, critical, branch, neutral, neutral_bq, ellipsoid_map, run)
+    over the points of CONFIG.toml, resumably.
 
     Every completed point is written to the store ([sweep] out) at once; a rerun skips the
     points done. --status and --table read the store and compute nothing.

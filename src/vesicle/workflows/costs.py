@@ -221,6 +221,12 @@ STUDY_COSTS: MappingProxyType[str, StudyCost] = MappingProxyType({
     "stress-chi": StudyCost("4 branches", 76, 30, "4 branches of 11 points"),
     "stress-split": StudyCost("2 branches", 29, 16, "2 branches of 17 points"),
     "ellipsoid-maps": StudyCost("3 maps", 40, 15, "3 maps of 15 x 15 solves"),
+    # measured 2026-12-07 with `vesicle study NAME --quick --workers 1`, beside two other jobs
+    "membrane-viscosity": StudyCost("1 curve", 103, 103, "4 curves in (Bq, lambda) at N = 8",
+                                    full="v = 0.95: 1212 s (chi = 1) at N = 8 on 32x64"),
+    "membrane-viscosity-check": StudyCost("1 curve", 77, 77, "1 curve at N = 4 on 16x32"),
+    "membrane-viscosity-runs": StudyCost("2 runs", 191, 162, "8 runs at N = 4 on 16x32, "
+                                         "to 3 settled periods or a steady state"),
 })  # fmt: skip
 
 

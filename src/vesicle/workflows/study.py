@@ -465,7 +465,8 @@ def _plot_neutral_bq(store: SweepStore, study: dict, folder: Path) -> tuple[Path
     results = sorted((rec["result"] for rec in store.records.values()
                       if "plane" in (rec.get("result") or {})),
                      key=lambda r: (-r["v"], r["chi"]))  # fmt: skip
-    bq_max = max([p["bq"] for r in results for p in r.get("points", [])] + [1.0])
+    bq_max = max([p["bq"] for r in results for c in r.get("curves", []) for p in c["points"]]
+                 + [1.0])  # fmt: skip
     for k, r in enumerate(results):
         color = f"C{k}"
         for c in r.get("curves", []):
