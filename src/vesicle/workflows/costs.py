@@ -225,7 +225,7 @@ STUDY_COSTS: MappingProxyType[str, StudyCost] = MappingProxyType({
     "membrane-viscosity": StudyCost("1 curve", 103, 103, "4 curves in (Bq, lambda) at N = 8",
                                     full="v = 0.95: 1212 s (chi = 1) at N = 8 on 32x64"),
     "membrane-viscosity-check": StudyCost("1 curve", 77, 77, "1 curve at N = 4 on 16x32"),
-    "membrane-viscosity-runs": StudyCost("2 runs", 191, 162, "8 runs at N = 4 on 16x32, "
+    "membrane-viscosity-runs": StudyCost("2 runs", 191, 162, "10 runs at N = 4 on 16x32, "
                                          "to 3 settled periods or a steady state"),
 })  # fmt: skip
 
