@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-
 import click
 
 from vesicle.bifurcation.neutral_bq import BqCurveInterrupted, neutral_curve_bq
@@ -16,8 +14,7 @@ from vesicle.cli.options import (
     physics_options,
     task_option,
 )
-from vesicle.cli.steady import _configure, _echo_progress, _emit_json
-from vesicle.io.files import stamped, write_text_atomically
+from vesicle.cli.steady import _configure, _echo_progress, _emit_json, write_partial
 from vesicle.model.settings import StabilitySettings
 from vesicle.ranges import parse_range
 from vesicle.solve.solver import SolverError
@@ -79,11 +76,7 @@ def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, m
                                  form=form, lam_range=(lam_min, 100.0),
                                  progress=_echo_progress)  # fmt: skip
     except BqCurveInterrupted as err:  # what was found is kept, then the interruption goes on
-        if out is not None:
-            write_text_atomically(out, json.dumps(stamped(
-                {**err.partial, "command": command_line(ctx)},
-                physics={k: x for k, x in physics.to_dict().items() if k not in ("lam", "bq")},
-                discretisation=disc), indent=1))  # fmt: skip
+        write_partial(ctx, out, err.partial, physics, disc, ("lam", "bq"))
         raise
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))

@@ -347,6 +347,19 @@ def _check_states(folder: str, names: list[str], overwrite: bool) -> None:
     check_output(existing / ".vesicle-probe", option="--states")
 
 
+def write_partial(ctx, out: str | None, partial: dict, physics: Physics, disc,
+                  continued: tuple[str, ...]) -> None:  # fmt: skip
+    """An interrupted curve's ``partial`` written to ``out`` (if given), stamped with the
+    command, the version, the physics without the ``continued`` parameters and the
+    discretisation."""
+    if out is None:
+        return
+    fixed = {k: x for k, x in physics.to_dict().items() if k not in continued}
+    write_text_atomically(out, json.dumps(
+        stamped({**partial, "command": command_line(ctx)}, physics=fixed, discretisation=disc),
+        indent=1))  # fmt: skip
+
+
 def _emit_json(result: dict, out: str | None, as_json: bool) -> bool:
     """Write ``result`` to ``out`` (atomically) and print it with ``--json``; returns whether
     it was printed (then nothing else is)."""
@@ -410,12 +423,7 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
                                      form=form, locate_type_change=type_change, cusps=cusps,
                                      progress=_echo_progress)  # fmt: skip
     except CurveInterrupted as err:  # what was found is kept, then the interruption goes on
-        if out is not None:
-            write_text_atomically(out, json.dumps(
-                stamped({**err.partial, "command": command_line(ctx)},
-                        physics={k: x for k, x in physics.to_dict().items()
-                                 if k not in ("lam", "chi")},
-                        discretisation=disc), indent=1))  # fmt: skip
+        write_partial(ctx, out, err.partial, physics, disc, ("lam", "chi"))
         raise
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
         fail(str(err))

@@ -352,7 +352,7 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     theory dotted, what the paper states drawn where SPEC §14 states it; a figure of runs whose
     y are all stresses has one panel) and ``NAME.csv`` (:func:`study_rows`) of a study's
     store."""
-    from vesicle.plots.runs import _figure, _save
+    from vesicle.plots.runs import _figure
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -407,6 +407,13 @@ def plot_study(store: SweepStore, study: dict, folder: str | Path) -> tuple[Path
     _legend(fig, axes, extra)
     if fits:
         write_text_atomically(folder / f"{study['name']}_fit.json", json.dumps(fits, indent=1))
+    return _finish(fig, store, study, folder, table)
+
+
+def _finish(fig, store: SweepStore, study: dict, folder: Path, table: Path) -> tuple[Path, Path]:
+    """The figure's title (with the store's resolution) and its file ``NAME.png``."""
+    from vesicle.plots.runs import _save
+
     d = store_discretisation(store)
     label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
              + (", quick" if study.get("quick") else ""))  # fmt: skip
@@ -449,9 +456,9 @@ def neutral_bq_rows(store: SweepStore) -> list[dict]:
 def _plot_neutral_bq(store: SweepStore, study: dict, folder: Path) -> tuple[Path, Path]:
     """``lambda_c(Bq)`` of each (v, chi) curve: the continued curve (line), the requested Bq
     (filled: located; open: an estimate), the critical Bq at each requested lambda (star),
-    the leading-order line ``lambda_c,LO(v) - 16 Bq/23`` (dotted); with an ``overlay`` study of
+    the leading-order shift ``lambda_c(0) - 16 Bq/23`` (dotted); with an ``overlay`` study of
     runs in the same folder, each run at its (Bq, lambda) marked by its regime."""
-    from vesicle.plots.runs import _figure, _save
+    from vesicle.plots.runs import _figure
 
     rows = neutral_bq_rows(store)
     table = folder / f"{study['name']}.csv"
@@ -515,13 +522,7 @@ def _plot_neutral_bq(store: SweepStore, study: dict, folder: Path) -> tuple[Path
     ax.set_ylim(bottom=0.0)
     ax.grid(alpha=0.3)
     _legend(fig, [ax], extra)
-    d = store_discretisation(store)
-    label = (f"N = {d.get('degree')}, {d.get('grid')}×{2 * d.get('grid', 0)}"
-             + (", quick" if study.get("quick") else ""))  # fmt: skip
-    fig.suptitle(f"{study.get('title', study['name'])}\n({label})", fontsize="small")
-    figure = _save(fig, folder / f"{study['name']}.png", 120)
-    log.info("wrote %s and %s", figure, table)
-    return figure, table
+    return _finish(fig, store, study, folder, table)
 
 
 def _runs_dir(store: SweepStore) -> Path:
