@@ -40,18 +40,23 @@ def test_restart_is_bit_identical(tmp_path):
     np.testing.assert_array_equal(read_run(tmp_path / "b.h5").coefficients, straight.coefficients)
 
 
-def test_interrupted_run_resumes_exactly(tmp_path):
-    straight = simulate(params())
+def _interrupted_after(steps: int, run_params: RunParameters, path: Path):
+    """The run file of ``run_params`` interrupted (Ctrl-C) after ``steps`` accepted steps."""
     calls = []
 
     def interrupt(info):
         calls.append(info)
-        if len(calls) == 4:
+        if len(calls) == steps:
             raise KeyboardInterrupt
 
     with pytest.raises(KeyboardInterrupt):
-        simulate(params(), out=tmp_path / "c.h5", progress=interrupt)
-    partial = read_run(tmp_path / "c.h5")
+        simulate(run_params, out=path, progress=interrupt)
+    return read_run(path)
+
+
+def test_interrupted_run_resumes_exactly(tmp_path):
+    straight = simulate(params())
+    partial = _interrupted_after(4, params(), tmp_path / "c.h5")
     assert partial.checkpoint["steps"] == 4 and partial.checkpoint["t"] < 0.06
     resumed = simulate(load_parameters(partial), resume=partial)
     np.testing.assert_array_equal(resumed.coefficients, straight.coefficients)
@@ -70,16 +75,7 @@ def test_a_viscous_membranes_run_resumes_exactly_with_its_preconditioner(tmp_pat
     monkeypatch.setattr(integrators, "REFRESH_ITERATIONS", 1)
     viscous = params(bq=2.0, lam=3.0, t_end=0.06)
     straight = simulate(viscous)
-    calls = []
-
-    def interrupt(info):
-        calls.append(info)
-        if len(calls) == 4:
-            raise KeyboardInterrupt
-
-    with pytest.raises(KeyboardInterrupt):
-        simulate(viscous, out=tmp_path / "v.h5", progress=interrupt)
-    partial = read_run(tmp_path / "v.h5")
+    partial = _interrupted_after(4, viscous, tmp_path / "v.h5")
     anchor = partial.checkpoint["preconditioner_shape"]
     assert not np.array_equal(anchor, straight.coefficients[0])  # refreshed since the start
     resumed = simulate(load_parameters(partial), resume=partial)
