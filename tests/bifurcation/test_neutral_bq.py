@@ -11,7 +11,7 @@ import math
 import pytest
 
 import vesicle as vs
-from vesicle.bifurcation.neutral_bq import leading_order_lambda_c, neutral_curve_bq
+from vesicle.bifurcation.neutral_bq import neutral_curve_bq
 from vesicle.model.theory import misbah_critical_lambda
 
 DISC = vs.Discretisation(grid=16, degree=4)
@@ -52,9 +52,9 @@ def test_its_json_carries_the_parameters_and_the_leading_order_line(curve):
     assert d["plane"] == ["bq", "lam"] and d["chi"] == 3.162 and d["v"] == 0.95
     assert d["degree"] == 4 and d["grid"] == 16 and "vesicle_version" in d
     assert d["curves"][0]["kind"] == "hopf" and d["seed"]["located"]
-    # the leading-order line lambda_c,LO(v) - 16 Bq/23 (docs/reference/membrane-viscosity.md)
-    assert leading_order_lambda_c(0.95, 2.3) == pytest.approx(
-        misbah_critical_lambda(0.95) - 1.6, rel=1e-14)
+    # the leading-order line's data (docs/reference/membrane-viscosity.md §4: 16/23 at l = 2)
+    assert d["leading_order"]["slope"] == pytest.approx(-16.0 / 23.0, rel=1e-15)
+    assert d["leading_order"]["lambda_c_bq0"] == misbah_critical_lambda(0.95)
 
 
 @pytest.mark.parametrize("kwargs, match", [

@@ -41,17 +41,17 @@ import numpy as np
 
 from vesicle.bifurcation import codim2
 from vesicle.bifurcation.critical import critical_lambda
-from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS
+from vesicle.bifurcation.neutral_codim2 import DEFAULT_SETTINGS, lam_box
 from vesicle.bifurcation.steady_codim2 import BQ_ROUNDING, FORMS, SteadyEquations
 from vesicle.geometry.surface import ShapeError
 from vesicle.io.files import stamped
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.settings import CriticalSearch, StabilitySettings
-from vesicle.model.theory import effective_viscosity_ratio, misbah_critical_lambda
+from vesicle.model.theory import misbah_critical_lambda
 from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError
 
-__all__ = ["BqCurve", "BqCurveInterrupted", "leading_order_lambda_c", "neutral_curve_bq"]
+__all__ = ["BqCurve", "BqCurveInterrupted", "neutral_curve_bq"]
 
 log = logging.getLogger(__name__)
 
@@ -210,6 +210,8 @@ def _critical_bq(eq, curves: Sequence[codim2.Curve], lam: float, settings) -> li
             d = _point_dict(q)
             d["lam"] = d.pop("lambda_c")
             d["estimate_from_curve"] = float(p[0])
+            if not q.converged:  # an unconverged iterate is no answer: the curve's estimate
+                d.update(bq=float(p[0]), estimate="interpolated between curve points")
             out.append(d)
     return out
 
@@ -268,9 +270,7 @@ def neutral_curve_bq(
         raise ValueError(f"lam_at must be positive, got {list(lam_at)}")
     if form not in FORMS:
         raise ValueError(f"form must be one of {FORMS}, got {form!r}")
-    lo, hi = map(float, lam_range)
-    if not 0 < lo < hi:
-        raise ValueError(f"lam_range must be (low, high) with 0 < low < high, got {lam_range}")
+    lo, hi = lam_box(lam_range)
     analysis = analysis if analysis is not None else StabilitySettings()
     disc = discretisation if discretisation is not None else Discretisation()
     settings = settings or SETTINGS
@@ -388,9 +388,3 @@ def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_po
 def _start_p(start) -> np.ndarray:
     return start.point.p if isinstance(start, codim2.SpecialPoint) else start.p
 
-
-def leading_order_lambda_c(v: float, bq: float) -> float:
-    """The small-deformation estimate ``lambda_c,LO(v) - 16 Bq/23`` (the effective viscosity
-    ratio ``lam + 16 Bq/23`` held at the inviscid membrane's leading-order ``lambda_c``)."""
-    lam_c = misbah_critical_lambda(v)
-    return 2.0 * lam_c - effective_viscosity_ratio(lam_c, bq)

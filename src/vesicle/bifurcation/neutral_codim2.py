@@ -81,7 +81,7 @@ from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, steady_tank_treading
 from vesicle.steady.stability import stability
 
-__all__ = ["DEFAULT_SETTINGS", "CurveInterrupted", "neutral_curve_codim2"]
+__all__ = ["DEFAULT_SETTINGS", "CurveInterrupted", "lam_box", "neutral_curve_codim2"]
 
 log = logging.getLogger(__name__)
 
@@ -958,6 +958,14 @@ def _special_dicts(ctx: _Context, kind: str) -> list[dict]:
     return out
 
 
+def lam_box(lam_range) -> tuple[float, float]:
+    """``(low, high)`` of a curve's box in lambda, checked: ``0 < low < high``."""
+    lo, hi = map(float, lam_range)
+    if not 0 < lo < hi:
+        raise ValueError(f"lam_range must be (low, high) with 0 < low < high, got {lam_range}")
+    return lo, hi
+
+
 def neutral_curve_codim2(
     physics: Physics | float,
     chi: Sequence[float],
@@ -1017,9 +1025,7 @@ def neutral_curve_codim2(
     analysis = analysis if analysis is not None else StabilitySettings()
     orientation, modes, jacobian = analysis.orientation, analysis.modes, analysis.jacobian
     physics, chis = curve_inputs(physics, chi)
-    lo, hi = map(float, lam_range)
-    if not 0 < lo < hi:
-        raise ValueError(f"lam_range must be (low, high) with 0 < low < high, got {lam_range}")
+    lo, hi = lam_box(lam_range)
     disc = discretisation if discretisation is not None else Discretisation()
     t0 = time.perf_counter()
     side = -1 if orientation == "vorticity" else 1
