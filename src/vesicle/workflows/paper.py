@@ -81,8 +81,19 @@ def expected_cost(item: Item, quick: bool) -> str:
 FULL, QUICK = (32, 8), (12, 4)
 
 
+#: The full report's resolution of its time-dependent runs (Figures 9, 11, 12, 14's runs, 15, 23):
+#: N = 8 on 24x48, the coarsest grid shown converged for what they report: TR and TU periods
+#: at N = 8 on 24x48 and on 32x64 agree to 1e-6 (measured 2026-12-03; docs/howto/studies.md).
+RUNS_FULL = (24, 8)
+
+
 def _resolution(quick: bool) -> tuple[int, int]:
     return QUICK if quick else FULL
+
+
+def _run_resolution(quick: bool) -> tuple[int, int]:
+    """The resolution of an item's time-dependent runs (:data:`RUNS_FULL` in the full report)."""
+    return QUICK if quick else RUNS_FULL
 
 
 def _map(options: dict, fn: Callable, calls: list[tuple]) -> list:
@@ -621,7 +632,7 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
     from vesicle.io.files import read_run
     from vesicle.plots.runs import T_LABEL, _figure, _save
 
-    grid, degree = _resolution(quick)
+    grid, degree = _run_resolution(quick)
     sub = folder / f"N{degree}_{grid}"  # a resolution never reuses another's files
     sub.mkdir(exist_ok=True)
     cache, run_path = sub / "stability.json", sub / "run.h5"
@@ -785,7 +796,7 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     from vesicle.model.parameters import Discretisation, Physics
     from vesicle.plots.runs import plot_out_of_plane
 
-    grid, degree = _resolution(quick)
+    grid, degree = _run_resolution(quick)
     grid = int(options.get("grid", grid))
     t_end = float(options.get("t_end", 30.0 if quick else 60.0))
     cases = [(c[0], c[1], float(c[2]) if len(c) > 2 else t_end)
@@ -1067,6 +1078,10 @@ def _run_compute(compute: Callable, folder: Path, quick: bool, options: dict) ->
 
 def _write_record(outdir: Path, item: Item, content: dict, quick: bool,
                   progress: Callable[[str], None] | None) -> dict:
+    # the figures and data files relative to the report's folder, so that a finished item
+    # moves with it (committed, copied to another machine) and is still found there
+    content = {**content, **{k: [_rel(p, outdir) for p in content[k]]
+                             for k in ("figures", "tables") if k in content}}
     content = stamped(content, quick=quick)
     write_text_atomically(outdir / item.key / "item.json",
                           json.dumps(content, indent=1, default=str))  # fmt: skip
@@ -1187,8 +1202,14 @@ def _resolution_text(record: dict) -> str:
 
 
 def _rel(path: str, outdir: Path) -> str:
+    """``path`` relative to the report's folder ``outdir``: as the items return them (under
+    the folder, absolute or relative to the working directory), or as a record stores them
+    (already relative to the folder); a path outside the folder is kept as it is."""
+    p = Path(path)
+    if not p.is_absolute() and (outdir / p).exists() and not p.exists():
+        return str(p)  # a record's path, relative to the folder
     try:
-        return str(Path(path).resolve().relative_to(outdir.resolve()))
+        return str(p.resolve().relative_to(outdir.resolve()))
     except ValueError:
         return str(path)
 
