@@ -3,6 +3,8 @@
 import csv
 import json
 import re
+import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,7 +12,14 @@ from click.testing import CliRunner
 
 from vesicle.cli import main
 from vesicle.io.files import read_run
-from vesicle.workflows.paper import ITEMS, PAPER_LABEL, TABLE1_PAPER, Item, build_report
+from vesicle.workflows.paper import (
+    ITEMS,
+    PAPER_LABEL,
+    TABLE1_PAPER,
+    Item,
+    build_report,
+    write_index,
+)
 
 
 def _boom(folder, quick, options):
@@ -64,6 +73,23 @@ def test_a_small_report_has_every_image_and_data_file(tmp_path):
     before = record.stat().st_mtime_ns
     build_report(tmp_path, quick=True, items=items, options={"grid": 12, "degrees": [2, 4]})
     assert record.stat().st_mtime_ns == before
+    # a finished item moves with its folder (the full report's items are committed and resumed
+    # on another machine): its record names its files relative to the report's folder, so the
+    # page of a copy without the stores finds every one, and the copy resumes without work
+    fig2 = json.loads((tmp_path / "fig2" / "item.json").read_text())
+    assert fig2["figures"] and fig2["tables"]
+    assert not any(Path(p).is_absolute() for p in fig2["figures"] + fig2["tables"])
+    moved = tmp_path.parent / f"{tmp_path.name}_moved"
+    shutil.copytree(tmp_path, moved, ignore=shutil.ignore_patterns("*.h5"))
+    text = write_index(moved, items, True).read_text()
+    for ref in re.findall(r'<img src="([^"]+)"', text) + re.findall(r'<a href="([^"#]+)"', text):
+        assert (moved / ref).is_file(), ref
+    assert "tt_N4_12.h5 (not kept in this copy of the report)" in text
+    moved_record = moved / "fig2" / "item.json"
+    before = moved_record.stat().st_mtime_ns
+    build_report(moved, quick=True, items=[i for i in items if i.key in ("table1", "fig2")],
+                 options={"grid": 12, "degrees": [2, 4]})  # fmt: skip
+    assert moved_record.stat().st_mtime_ns == before
 
 
 def test_table1_reference_values_are_those_of_spec_14():
@@ -347,3 +373,25 @@ def test_each_item_says_its_expected_cost_and_then_its_wall_time(tmp_path):
     assert said[0] == f"fig23: expected {expected_cost(items['fig23'], True)}"
     assert any(s.startswith("Figures 23, 24: done in ") and "(expected about 430 CPU s" in s
                for s in said)  # fmt: skip
+
+
+def test_orbit_classes_are_compared_across_degrees_start_by_start():
+    """Figure 23's convergence in N: a start (lam, tilt, and the tilted spheroid or a phase of
+    the in-plane run, whose time differs between degrees) is matched across N; the classes
+    here are made up to cover agreement, disagreement and a start run at one N only."""
+    from vesicle.workflows.paper import _class_convergence
+
+    def r(n, orbit, phase=None, lam=11.0, t=20.0):
+        start = "tilted spheroid" if phase is None else f"in-plane shape at t = {t} (phase {phase})"
+        return {"lam": lam, "tilt_deg": 54.0, "degree": n, "orbit": orbit, "phase": phase,
+                "start": start}
+
+    rows = [r(8, "precession-y"), r(6, "precession-y"),
+            r(8, "figure-8-x", 0.0, t=25.1), r(6, "precession-y", 0.0, t=24.7),
+            r(8, "in-plane", lam=9.0)]  # fmt: skip
+    c = _class_convergence(rows, 8)
+    assert c["same"] == 1 and len(c["different"]) == 1
+    differ = c["different"][0]
+    assert "phase 0" in differ and "N = 6 precession-y, N = 8 figure-8-x" in differ
+    assert c["text"].startswith("1 of 2 starts have the same class at every N")
+    assert _class_convergence([r(8, "in-plane")], 8)["text"] == ""

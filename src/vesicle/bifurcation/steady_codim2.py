@@ -140,6 +140,8 @@ class SteadyEquations(codim2.Problem):
         self.size = probe.basis.size
         mass = np.eye(self.size + 2)
         mass[-2:, -2:] = 0.0
+        if probe.rate_weights is not None:  # the rates weighed (multipliers along L2 gradients)
+            mass[: self.size, : self.size] = np.diag(probe.rate_weights)
         self.mass = mass
         # the translations (degree 1) of the general basis: neutral modes that the dynamics'
         # re-centring removes, excluded from the spectrum as in vesicle.steady.stability

@@ -9,7 +9,7 @@ from __future__ import annotations
 import click
 
 from vesicle.model.flows import FLOWS
-from vesicle.model.parameters import METHODS, Discretisation, Physics
+from vesicle.model.parameters import METHODS, MULTIPLIERS, Discretisation, Physics
 from vesicle.stokes.backends import BACKENDS
 from vesicle.workflows.tasks import OPTIONS
 
@@ -67,6 +67,13 @@ def discretisation_options(names=("grid", "degree", "n_rot", "backend", "method"
                                 help="Layer-potential assembly kernels (numpy: the reference)."),
         "method": click.option("--method", type=click.Choice(METHODS), default=_D.method,
                                show_default=True, help="Layer potentials assembled or not."),
+        "multipliers": click.option(
+            "--multipliers", type=click.Choice(MULTIPLIERS), default=_D.multipliers,
+            show_default=True,
+            help="Along which directions the steady equations' area and volume multipliers "
+                 "act: the gradients in the basis coordinates (SPEC §8) or the L2 gradients "
+                 "(l2: those of the time stepping's drift control, whose fixed points the "
+                 "states then are)."),
         "threads": click.option("--threads", type=int, default=None,
                                 help="Threads over latitude rings in assembly [default: 1 on grids "
                                 "of 16 latitudes or fewer, else <= 2]."),
@@ -111,8 +118,8 @@ def make_physics(options: dict, **overrides) -> Physics:
 
 def make_discretisation(options: dict) -> Discretisation:
     """The :class:`Discretisation` of the parsed options (popped from ``options``)."""
-    values = {k: options.pop(k) for k in ("grid", "degree", "n_rot", "backend", "method")
-              if k in options}  # fmt: skip
+    values = {k: options.pop(k) for k in ("grid", "degree", "n_rot", "backend", "method",
+                                          "multipliers") if k in options}  # fmt: skip
     if "threads" in options:
         values["workers"] = options.pop("threads")
     return Discretisation(**values)
@@ -125,6 +132,7 @@ CONFIG_KEYS = {
     "degree": ("discretisation", "degree"), "n_rot": ("discretisation", "n_rot"),
     "backend": ("discretisation", "backend"), "method": ("discretisation", "method"),
     "threads": ("discretisation", "workers"), "tolerances": ("solver", "preset"),
+    "multipliers": ("discretisation", "multipliers"),
 }  # fmt: skip
 
 

@@ -98,7 +98,7 @@ _JACOBIAN = task_option("jacobian")
 
 @main.command()
 @physics_options()
-@discretisation_options()
+@discretisation_options(("grid", "degree", "n_rot", "backend", "method", "threads", "multipliers"))
 @click.option("--stability", "with_stability", is_flag=True, help="Eigenvalues of the state.")
 @_STABILITY_MODES
 @_ORIENTATION
@@ -236,7 +236,7 @@ def _branch_parameters(texts: dict[str, str], step: float | None):
 @physics_options(("flow",))
 @click.option("--step", type=float, default=None,
               help="Step size of a START:STOP range, which may run down (8:7) [default: 1].")
-@discretisation_options()
+@discretisation_options(("grid", "degree", "n_rot", "backend", "method", "threads", "multipliers"))
 @task_option("xtol",
              help="Tolerance of the special points (absolute in lam, relative in chi and v).")
 @task_option("locate")

@@ -182,6 +182,8 @@ def _as_flow(flow: Any) -> LinearFlow:
 
 #: Layer-potential strategies (see :mod:`vesicle.stokes.operators`).
 METHODS = ("assembled", "matrix-free")
+#: The directions of the steady equations' area and volume multipliers (``Discretisation``).
+MULTIPLIERS = ("coefficients", "l2")
 
 
 @dataclass(frozen=True)
@@ -206,6 +208,16 @@ class Discretisation(_Frozen):
     workers : int or None
         Threads over latitude rings in assembly (default: :meth:`assembly_threads`:
         ``VESICLE_THREADS``, else 1 on grids of 16 latitudes or fewer, else ``min(2, cpus)``).
+    multipliers : {"coefficients", "l2"}
+        Along which directions the steady equations' area and volume multipliers act (SPEC
+        §8; they absorb the truncated dynamics' small failure to conserve A and V, and vanish
+        with the resolution): ``"coefficients"`` (default), the gradients ``dA/da``, ``dV/da``
+        in the basis coordinates; ``"l2"``, the L2 gradients of A and V on the unit sphere,
+        the directions of the time stepping's drift control
+        (:func:`vesicle.dynamics.integrators.restore_area_volume`), so that the steady states
+        are the time stepping's fixed points.  The two differ by the multipliers' size
+        (docs/reference/steady.md, *Two discretisations of the constraints*).  Time stepping
+        has no multipliers and ignores it.
     """
 
     grid: int = 32
@@ -214,6 +226,7 @@ class Discretisation(_Frozen):
     backend: str = "numba"
     method: str = "assembled"
     workers: int | None = None
+    multipliers: str = "coefficients"
 
     def __post_init__(self) -> None:
         grid = _integer("Discretisation", "grid", self.grid, 4)
@@ -244,6 +257,16 @@ class Discretisation(_Frozen):
             raise ValueError(f"backend must be one of {tuple(BACKENDS)}, got {self.backend!r}")
         if self.method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}, got {self.method!r}")
+        if self.multipliers not in MULTIPLIERS:
+            raise ValueError(f"multipliers must be one of {MULTIPLIERS}, got {self.multipliers!r}")
+
+    def to_dict(self) -> dict:
+        # the default multipliers are left out, so that the keys, fingerprints and files of
+        # every result computed before the option existed stay what they were
+        d = super().to_dict()
+        if d["multipliers"] == "coefficients":
+            del d["multipliers"]
+        return d
 
     def assembly_threads(self) -> int:
         """The threads over latitude rings that assembly uses: ``workers`` if given, else the

@@ -95,7 +95,7 @@ class SteadyFile:
         disc = self.discretisation if discretisation is None else discretisation
         if _resolution(disc) != _resolution(self.discretisation):
             raise ValueError(f"the state is at {_resolution(self.discretisation)} (degree, grid, "
-                             f"n_rot), not {_resolution(disc)}")  # fmt: skip
+                             f"n_rot, multipliers), not {_resolution(disc)}")  # fmt: skip
         problem = SteadyProblem(self.physics, disc, NEWTON_TOLERANCES, modes=self.basis,
                                 jacobian_method=self.jacobian_method)  # fmt: skip
         a = np.asarray(self.arrays["a"], float)
@@ -167,7 +167,9 @@ UNKNOWN_START = "unknown (a file written before the start was recorded)"
 
 
 def _resolution(disc: Discretisation) -> tuple:
-    return disc.degree, disc.grid, disc.n_rot or disc.grid
+    """What a state's arrays depend on: the degree, the grids and (for its multipliers and
+    Jacobian) the multipliers' directions."""
+    return disc.degree, disc.grid, disc.n_rot or disc.grid, disc.multipliers
 
 
 def _checksum(parameters: dict, arrays: dict[str, np.ndarray], scalars: dict) -> str:

@@ -199,6 +199,33 @@ class SteadyProblem:
         """The basis functions on the grid, (size, n_theta, n_phi)."""
         return self.basis.functions(SphereGrid(self.discretisation.grid))
 
+    @cached_property
+    def rate_weights(self) -> np.ndarray | None:
+        """The weights of the rates under ``Discretisation(multipliers="l2")``: each basis
+        function's squared L2 norm on the unit sphere, ``W_k = int Y_k^2 dOmega``.
+
+        Every rate (``adot``, ``M = d adot / d a``, ``d adot / d p``) is multiplied by ``W``,
+        so the dynamic equations ``W adot - mu . g = 0`` read ``adot = mu . W^-1 g``: the
+        multipliers act along ``W^-1 g``, the L2 gradients of A and V, which are the
+        directions of the time stepping's drift control
+        (:func:`vesicle.dynamics.integrators.restore_area_volume`), and the steady states are
+        the time stepping's fixed points.  The Newton matrix ``[[W M - mu . H, -g^T], [g, 0]]``
+        is singular where the branch turns, whatever ``W``; the growth rates are those of the
+        pencil with the mass matrix ``diag(W, 0)`` (:func:`vesicle.steady.stability.stability`).
+        ``None`` (nothing weighed, the default ``"coefficients"``): the multipliers act along
+        the gradients in the basis coordinates (SPEC §8)."""
+        if self.discretisation.multipliers == "coefficients":
+            return None
+        f = self.functions
+        return np.einsum("kij,kij,ij->k", f, f, SphereGrid(self.discretisation.grid).weights)
+
+    def _weighed(self, rates: np.ndarray) -> np.ndarray:
+        """``rates`` (size,) or (size, k) multiplied by :attr:`rate_weights` (when there are)."""
+        w = self.rate_weights
+        if w is None:
+            return rates
+        return w * rates if rates.ndim == 1 else w[:, None] * rates
+
     @property
     def targets(self) -> tuple[float, float]:
         """The area and volume every steady state keeps: ``4 pi`` and ``4 pi v / 3``."""
@@ -328,7 +355,7 @@ class SteadyProblem:
         if system is None:
             raise ValueError("no factorised system kept near this shape: compute a Jacobian first")
         shape = self.shape(a)
-        return linearised_action(self._solver(shape), self.basis, vectors, system)
+        return self._weighed(linearised_action(self._solver(shape), self.basis, vectors, system))
 
     def parameter_rates(self, a: np.ndarray,
                         parameters: tuple[str, ...] = ("chi", "lam")) -> np.ndarray:  # fmt: skip
@@ -380,15 +407,16 @@ class SteadyProblem:
                 rhs.append(-solver.lp.single_layer(viscous_force(shape, u, 1.0)) / EIGHT_PI)
         du = solve(np.stack(rhs))
         degree = self.basis.degree
-        return np.stack([self.basis.from_coefficients(rate_of_change(shape, d, degree))
-                         for d in du], axis=1)  # fmt: skip
+        return self._weighed(np.stack([self.basis.from_coefficients(rate_of_change(shape, d,
+                                                                                   degree))
+                                       for d in du], axis=1))  # fmt: skip
 
     def adot(self, a: np.ndarray, sigma0=None) -> tuple[np.ndarray, FlowResult]:
         """``adot(a)`` and the solve it came from."""
         shape = self.shape(a)
         flow = self.solve(shape, sigma0)
         rate = rate_of_change(shape, flow.u, self.basis.degree)
-        return self.basis.from_coefficients(rate), flow
+        return self._weighed(self.basis.from_coefficients(rate)), flow
 
     def gradients(self, shape: Shape) -> np.ndarray:
         """``dA/da`` and ``dV/da`` at ``shape``, (2, size)."""
@@ -504,7 +532,7 @@ class SteadyProblem:
             if abs(shape.reduced_volume - 1.0) >= SPHERE_TOLERANCE:
                 reused = _reused(self, shape)
                 if reused is not None:
-                    return reused, 0
+                    return self._weighed(reused), 0
                 _assembled(self._solver(shape))  # not timed: common to both ways
                 start = time.perf_counter()
                 kept = self.kept.system  # a viscous membrane's solve may have factorised it
@@ -515,7 +543,7 @@ class SteadyProblem:
                 self.kept.stale = False
                 M = linearised_jacobian(system.solver, self.basis, system=system).jacobian
                 self.kept.factorised_seconds = time.perf_counter() - start
-                return M, 0
+                return self._weighed(M), 0
             log.info("exact sphere: Jacobian by central differences")
             central = True
         h = JACOBIAN_STEP * max(1.0, abs(a[0]))

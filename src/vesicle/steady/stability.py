@@ -31,6 +31,7 @@ from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from vesicle.model.settings import default_modes  # re-exported: decided there
 from vesicle.sphere.bases import FullBasis
@@ -105,10 +106,14 @@ def stability(
         extra = np.eye(basis.size)[basis.l == 1]  # translations
     H = problem.constraint_hessians(a0)
     curved = M - np.einsum("k,kij->ij", np.asarray(result.multipliers, float), H)
-    Z, _ = np.linalg.qr(np.concatenate([g, extra]).T)
+    C = np.concatenate([g, extra])
+    Z, _ = np.linalg.qr(C.T)
     Q = np.eye(basis.size) - Z @ Z.T
+    W = problem.rate_weights
 
     def spectrum(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if W is not None:  # multipliers along W^-1 g: the pencil with the mass diag(W, 0)
+            return _weighed_spectrum(A, C, W)
         mu, vec = np.linalg.eig(Q.T @ A @ Q)
         # drop the trivial zeros: eigenvectors in the constrained span (killed by Q)
         keep = np.argsort(np.linalg.norm(Q @ vec, axis=0))[Z.shape[1] :]
@@ -144,3 +149,18 @@ def stability(
     shapes = parts[:, 0] + 1j * parts[:, 1]
     log.info("most unstable %s mode: omega = (%.4g, %.4g)", modes, *omega[0])
     return StabilityResult(omega, shapes, modes, parts, shift)
+
+
+def _weighed_spectrum(A: np.ndarray, C: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The growth rates of ``W da/dt = A da - C^T nu``, ``C da = 0`` (the rates weighed by
+    ``W``: ``Discretisation(multipliers="l2")``, :attr:`SteadyProblem.rate_weights`): the
+    finite eigenvalues of the pencil ``([[A, -C^T], [C, 0]], diag(W, 0))``, ``n - c`` of them,
+    and their eigenvectors' ``da`` parts.  With ``W = I`` they are those of ``Q^T A Q``."""
+    n, c = A.shape[0], C.shape[0]
+    K = np.block([[A, -C.T], [C, np.zeros((c, c))]])
+    B = np.zeros_like(K)
+    B[np.arange(n), np.arange(n)] = W
+    mu, vec = scipy.linalg.eig(K, B)
+    finite = np.flatnonzero(np.isfinite(mu))
+    keep = finite[np.argsort(np.abs(mu[finite]))[: n - c]]
+    return mu[keep], vec[:n, keep]

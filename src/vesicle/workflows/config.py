@@ -36,7 +36,7 @@ _NUMBER = (int, float)
 SECTIONS: dict[str, dict[str, tuple]] = {
     "physics": {"v": _NUMBER, "lam": _NUMBER, "chi": _NUMBER, "flow": (str, list)},
     "discretisation": {"grid": (int,), "degree": (int,), "n_rot": (int,), "backend": (str,),
-                       "method": (str,), "workers": (int,)},
+                       "method": (str,), "workers": (int,), "multipliers": (str,)},
     "solver": {"preset": (str,), "schur": _NUMBER, "inner": _NUMBER, "max_outer": (int,),
                "max_inner": (int,), "restart": (int,)},
     "run": {name: (bool,) if isinstance(d, bool) else (str,) if isinstance(d, str)
@@ -54,6 +54,8 @@ _DESCRIPTIONS = {
     "backend": "layer-potential kernels: numba or numpy (the reference)",
     "method": "assembled or matrix-free",
     "workers": "threads over latitude rings (default: <= 2)",
+    "multipliers": '"coefficients" (SPEC §8) or "l2" (the time stepping\'s drift-control '
+                   "directions): along which the steady equations' A and V multipliers act",
     "preset": '"time-dependent" (1e-3/1e-4) or "steady" (1e-6/1e-7), or give schur, inner',
     "schur": "relative tolerance of the outer (Schur-complement) GMRES, in (0, 1)",
     "inner": "relative tolerance of the inner (A_uu) GMRES, in (0, 1)",
@@ -216,8 +218,8 @@ def to_toml(params: RunParameters, title: str = "vesicle run configuration") -> 
     tables = {
         "physics": {"v": p.v, "lam": p.lam, "chi": p.chi, "flow": flow},
         "discretisation": {
-            k: getattr(d, k) for k in SECTIONS["discretisation"] if getattr(d, k) is not None
-        },
+            k: x for k, x in d.to_dict().items() if x is not None  # the default multipliers
+        },  # are left out (Discretisation.to_dict)
         "solver": {
             k: getattr(s, k) for k in ("schur", "inner", "max_outer", "max_inner", "restart")
         },

@@ -787,81 +787,97 @@ def _tilted_run(path: str, params) -> dict:
     return summarize(run)
 
 
+#: The full report's second resolution of the tilted starts: N = 6 beside N = 8, to show whether
+#: an orbit class is converged in N (N = 6 on 16x32, as Table 1's quick rows: 12x24 aliases it).
+TILTED_CHECK = (16, 6)
+
+
 def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     """Tilted starts (SPEC §13): each run to ``t_end`` (resumed from its file when cut short),
     the orbit of its long axis classified (:func:`vesicle.geometry.diagnostics.classify_orbit`)
-    over the last half, its axes drawn on the unit sphere and seen along the vorticity axis."""
+    over the last half, its axes drawn on the unit sphere and seen along the vorticity axis.
+
+    The full report runs every start at N = 8 (:data:`RUNS_FULL`) and again at N = 6
+    (:data:`TILTED_CHECK`), and says per start whether the two classes agree;
+    ``options["resolutions"]`` ((grid, degree), ...) chooses others (the first is the item's
+    own, which alone runs the tumbling-against-tilt cases)."""
     from vesicle.dynamics.integrators import RunParameters
     from vesicle.io.files import read_run
     from vesicle.model.parameters import Discretisation, Physics
     from vesicle.plots.runs import plot_out_of_plane
 
     grid, degree = _run_resolution(quick)
-    grid = int(options.get("grid", grid))
+    resolutions = [tuple(int(x) for x in r) for r in
+                   options.get("resolutions", [(grid, degree)] if quick
+                               else [(grid, degree), TILTED_CHECK])]  # fmt: skip
+    resolutions[0] = (int(options.get("grid", resolutions[0][0])), resolutions[0][1])
+    grid, degree = resolutions[0]
     t_end = float(options.get("t_end", 30.0 if quick else 60.0))
     cases = [(c[0], c[1], float(c[2]) if len(c) > 2 else t_end)
              for c in options.get("tilted", TILTED_QUICK if quick else TILTED)]  # fmt: skip
-    names = [f"lam{lam:g}_tilt{tilt:g}_N{degree}_{grid}" for lam, tilt, _ in cases]  # a resolution
-    calls = [(str(folder / f"{name}.h5"),  # never reuses another's files
-              RunParameters(Physics(v=0.95, lam=lam, chi=4.0), Discretisation(grid, degree),
-                            t_end=end, save_every=0.05, dt_max=0.25, tilt=tilt,
-                            integrator="ros34pw2", rtol=1e-3, save_fields=False))
-             for name, (lam, tilt, end) in zip(names, cases, strict=True)]  # fmt: skip
+
+    def run_parameters(lam, chi, g, n, **kw):
+        return RunParameters(Physics(v=0.95, lam=lam, chi=chi), Discretisation(g, n),
+                             integrator="ros34pw2", rtol=1e-3, save_fields=False,
+                             dt_max=0.25, **kw)  # fmt: skip
+
+    # a resolution never reuses another's files: N and the grid are in every file's name
+    tilted = [(lam, tilt, end, g, n, f"lam{lam:g}_tilt{tilt:g}_N{n}_{g}")
+              for g, n in resolutions for lam, tilt, end in cases]  # fmt: skip
+    calls = [(str(folder / f"{name}.h5"),
+              run_parameters(lam, 4.0, g, n, t_end=end, save_every=0.05, tilt=tilt))
+             for lam, tilt, end, g, n, name in tilted]  # fmt: skip
     tu_cases = options.get("tilted_tu", TILTED_TU_QUICK if quick else TILTED_TU)
     tu_names = [f"tu_lam{lam:g}_chi{chi:g}_tilt{tilt:g}_N{degree}_{grid}"
                 for lam, chi, tilt in tu_cases]  # fmt: skip
     calls += [(str(folder / f"{name}.h5"),
-               RunParameters(Physics(v=0.95, lam=lam, chi=chi), Discretisation(grid, degree),
-                             t_end=float(options.get("tumbling_t_end", 120.0 / chi)),
-                             save_every=0.1 / chi, dt_max=0.25, tilt=tilt, integrator="ros34pw2",
-                             rtol=1e-3, save_fields=False))
+               run_parameters(lam, chi, grid, degree, tilt=tilt, save_every=0.1 / chi,
+                              t_end=float(options.get("tumbling_t_end", 120.0 / chi))))
               for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
     summaries = _map(options, _tilted_run, calls)
     # SPEC §13's starts: shapes of the in-plane run rotated out of the plane, at several phases
     snap_cases = options.get("snapshot", SNAPSHOT_QUICK if quick else SNAPSHOT)
     phases = tuple(options.get("phases", PHASES_QUICK if quick else PHASES))
-    in_plane = [(str(folder / f"inplane_lam{lam:g}_N{degree}_{grid}.h5"),
-                 RunParameters(Physics(v=0.95, lam=lam, chi=4.0), Discretisation(grid, degree),
-                               t_end=float(options.get("snapshot_t", SNAPSHOT_T)),
-                               save_every=0.05, dt_max=0.25, integrator="ros34pw2", rtol=1e-3,
-                               periods=3, save_fields=False))
-                for lam, _ in snap_cases]  # fmt: skip
+    in_plane = [(str(folder / f"inplane_lam{lam:g}_N{n}_{g}.h5"),
+                 run_parameters(lam, 4.0, g, n, periods=3, save_every=0.05,
+                                t_end=float(options.get("snapshot_t", SNAPSHOT_T))))
+                for g, n in resolutions for lam, _ in snap_cases]  # fmt: skip
     _map(options, _inplane_run, in_plane)
     snap_calls, snap_keys = [], []
-    for (lam, tilt), (source, _) in zip(snap_cases, in_plane, strict=True):
-        for phase in phases:
-            name = f"snap_lam{lam:g}_tilt{tilt:g}_phase{phase:.3f}_N{degree}_{grid}"
-            snap_calls.append((str(folder / f"{name}.h5"),
-                               RunParameters(Physics(v=0.95, lam=lam, chi=4.0),
-                                             Discretisation(grid, degree), t_end=t_end,
-                                             save_every=0.05, dt_max=0.25, tilt=tilt,
-                                             integrator="ros34pw2", rtol=1e-3,
-                                             save_fields=False),
-                               source, phase))  # fmt: skip
-            snap_keys.append((lam, tilt, phase, name))
+    sources = iter(in_plane)
+    for g, n in resolutions:
+        for lam, tilt in snap_cases:
+            source = next(sources)[0]
+            for phase in phases:
+                name = f"snap_lam{lam:g}_tilt{tilt:g}_phase{phase:.3f}_N{n}_{g}"
+                snap_calls.append((str(folder / f"{name}.h5"),
+                                   run_parameters(lam, 4.0, g, n, t_end=t_end, save_every=0.05,
+                                                  tilt=tilt), source, phase))  # fmt: skip
+                snap_keys.append((lam, tilt, phase, g, n, name))
     snap_summaries = _map(options, _snapshot_run, snap_calls)
     rows, figures = [], []
-    for (lam, tilt, _), s in zip(cases, summaries[: len(cases)], strict=True):
+
+    def row(lam, tilt, g, n, s, start=None, phase=None):
         orbit = s.get("orbit") or {}
-        rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
-                     "regime": s["regime"], "orbit": orbit.get("class"),
-                     "orbit_period": orbit.get("period"), "psi_period": s["period"],
-                     "detail": orbit.get("detail", s["regime_detail"]),
-                     "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
-    for (lam, tilt, phase, _), s in zip(snap_keys, snap_summaries, strict=True):
-        orbit = s.get("orbit") or {}
-        rows.append({"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0,
-                     "start": f"in-plane shape at t = {s['start_t']:.4g} (phase {phase:.3g})",
-                     "regime": s["regime"], "orbit": orbit.get("class"),
-                     "orbit_period": orbit.get("period"), "psi_period": s["period"],
-                     "detail": orbit.get("detail", s["regime_detail"]),
-                     "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
+        r = {"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0, "regime": s["regime"],
+             "orbit": orbit.get("class"), "orbit_period": orbit.get("period"),
+             "psi_period": s["period"], "detail": orbit.get("detail", s["regime_detail"]),
+             "t_end": s["t_final"], "solves": s["solves"], "degree": n, "grid": g,
+             "phase": phase}  # fmt: skip
+        return {**({"start": start} if start else {}), **r}
+
+    for (lam, tilt, _, g, n, _), s in zip(tilted, summaries[: len(tilted)], strict=True):
+        rows.append(row(lam, tilt, g, n, s))
+    for (lam, tilt, phase, g, n, _), s in zip(snap_keys, snap_summaries, strict=True):
+        rows.append(row(lam, tilt, g, n, s, f"in-plane shape at t = {s['start_t']:.4g} "
+                                            f"(phase {phase:.3g})", phase))  # fmt: skip
     for r in rows:
         r.setdefault("start", "tilted spheroid")
     tables = [_write_csv(folder / "fig23.csv", rows)]
-    by_start = {}
+    by_start = {}  # at the item's own resolution: does the class depend on the start?
     for r in rows:
-        by_start.setdefault((r["lam"], r["tilt_deg"]), set()).add((r["start"], r["orbit"]))
+        if r["degree"] == degree:
+            by_start.setdefault((r["lam"], r["tilt_deg"]), set()).add((r["start"], r["orbit"]))
     phase_note = "; ".join(
         f"lam = {lam:g}, {tilt:g} deg: " + (
             f"one class ({next(iter({c for _, c in starts}))}) from every start"
@@ -869,34 +885,63 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
             "the class depends on the start: " + ", ".join(f"{c} ({s})" for s, c in sorted(
                 starts, key=lambda x: x[0])))
         for (lam, tilt), starts in by_start.items() if len(starts) > 1)  # fmt: skip
+    convergence = _class_convergence(rows, degree)
     tu_rows = []
-    for (lam, chi, tilt), s in zip(tu_cases, summaries[len(cases) :], strict=True):
+    for (lam, chi, tilt), s in zip(tu_cases, summaries[len(tilted) :], strict=True):
         o = s["out_of_plane"]
         tu_rows.append({"lam": lam, "chi": chi, "tilt_deg": tilt, "regime": s["regime"],
                         "half_turn_period": s["period"], "angle_start": o["angle_start"],
                         "angle_end": o["angle_end"], "rate": o["rate"],
                         "per_half_turn": o["per_half_turn"], "detail": o["detail"],
                         "t_end": s["t_final"], "solves": s["solves"]})  # fmt: skip
-    for name in names + tu_names + [k[3] for k in snap_keys]:
+    for name in [t[5] for t in tilted if t[4] == degree] + tu_names + [
+            k[5] for k in snap_keys if k[4] == degree]:  # figures: the item's own resolution
         run = read_run(folder / f"{name}.h5")
         figures += [str(p) for p in plot_out_of_plane(run, folder, prefix=f"{name}_", dpi=100)]
     if tu_rows:
         tables.append(_write_csv(folder / "fig23_tumbling_tilt.csv", tu_rows))
     return {"figures": figures, "tables": tables, "comparisons": [], "rows": rows,
-            "tumbling_tilt": tu_rows,
+            "tumbling_tilt": tu_rows, "class_convergence": convergence,
             "note": "orbit classes over the last half of each run: in-plane (then the psi regime "
                     "decides TR or TU), vorticity-TT, precession about y, figure-8 about x; "
                     "starts: the tilted spheroid, and (SPEC §13) shapes of the in-plane run at "
                     "several phases of its last period, rotated out of the plane by the same "
                     "tilt" + (f" ({phase_note})" if phase_note else "") + "; "
-                    "tumbling against tilt (fig23_tumbling_tilt.csv): the out-of-plane angle's "
+                    + (f"in N: {convergence['text']}; " if convergence["text"] else "")
+                    + "tumbling against tilt (fig23_tumbling_tilt.csv): the out-of-plane angle's "
                     "growth per half turn of the in-plane TU",
             "parameters": {"v": 0.95, "chi": 4.0, "degree": degree, "grid": grid,
+                           "resolutions": [list(r) for r in resolutions],
                            "t_end": t_end, "integrator": "ros34pw2", "rtol": 1e-3,
                            "cases": [list(c) for c in cases],
                            "snapshot_cases": [list(c) for c in snap_cases],
                            "phases": list(phases),
                            "tumbling_cases": [list(c) for c in tu_cases]}}  # fmt: skip
+
+
+def _class_convergence(rows: list[dict], degree: int) -> dict:
+    """Per start (lam, tilt, start), the orbit class at the item's own degree against the other
+    degrees it was run at: ``{"same": n, "different": [...], "text": ...}``."""
+    by = {}
+    for r in rows:  # a snapshot start is the same start at every N by its phase, not its time
+        start = ("tilted spheroid" if r.get("phase") is None
+                 else f"in-plane shape at phase {r['phase']:.3g}")  # fmt: skip
+        by.setdefault((r["lam"], r["tilt_deg"], start), {})[r["degree"]] = r["orbit"]
+    same, different = 0, []
+    for (lam, tilt, start), classes in by.items():
+        if degree not in classes or len(classes) < 2:
+            continue
+        others = {n: c for n, c in classes.items() if n != degree}
+        if all(c == classes[degree] for c in others.values()):
+            same += 1
+        else:
+            different.append(f"lam = {lam:g}, {tilt:g} deg, {start}: "
+                             + ", ".join(f"N = {n} {c}" for n, c in sorted(classes.items())))
+    compared = same + len(different)
+    text = "" if not compared else (
+        f"{same} of {compared} starts have the same class at every N"
+        + (f"; differ: {'; '.join(different)}" if different else ""))  # fmt: skip
+    return {"same": same, "different": different, "text": text}
 
 
 #: The items.  ``cost``: the quick report's CPU seconds, measured 2026-12-03 at N = 4 on 12x24
@@ -1454,9 +1499,11 @@ def write_index(outdir: Path, items: list[Item], quick: bool) -> Path:
                      for row in shown["rows"]]  # fmt: skip
             body.append("</table>")
         data = [_rel(t, outdir) for t in content.get("tables", [])]
-        if data:
-            body.append("<p>Data: " + ", ".join(f'<a href="{e(d)}">{e(Path(d).name)}</a>'
-                                                for d in data) + "</p>")  # fmt: skip
+        if data:  # a copy of the report without its stores (committed) names what it lacks
+            body.append("<p>Data: " + ", ".join(
+                f'<a href="{e(d)}">{e(Path(d).name)}</a>' if (outdir / d).exists()
+                else f"{e(Path(d).name)} (not kept in this copy of the report)"
+                for d in data) + "</p>")  # fmt: skip
         if content.get("note"):
             body.append(f"<p><i>{e(content['note'])}</i></p>")
         for failure in content.get("failures", []):
