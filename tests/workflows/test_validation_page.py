@@ -97,6 +97,25 @@ def test_the_page_section_is_replaced_and_the_rest_kept(reports, tmp_path):
     assert "vesicle_version" in stored
 
 
+def test_the_page_lists_every_finished_item_with_its_figures(reports, tmp_path):
+    """One row per item of the full report, its figures linked from the page's folder (the
+    full report's folder beside it, as docs/validation.md and docs/validation/full)."""
+    full, _ = reports
+    record = json.loads((full / "fig7" / "item.json").read_text())
+    record["figures"] = ["fig7/phase_diagram.png"]  # as the report writes it: relative
+    (full / "fig7" / "item.json").write_text(json.dumps(record))
+    page = tmp_path / "v.md"
+    r = CliRunner().invoke(main, ["validation", "--full", str(full), "--page", str(page),
+                                  "--data", str(tmp_path / "v")])  # fmt: skip
+    assert r.exit_code == 0, r.output
+    text = page.read_text()
+    assert text.index("### The full report's items") < text.index("### The report's comparisons")
+    row = next(line for line in text.splitlines() if line.startswith("| Figures 7, 13 |"))
+    assert "[phase_diagram.png](full/fig7/phase_diagram.png)" in row
+    assert "| done | N = 8, 32×64 | 0.2 min |" in row and "| 1 of 2 |" in row
+    assert "| Table 1 | most unstable mode" in text and "2 of 2" in text
+
+
 def test_the_quick_page_shows_the_stored_full_values(reports, tmp_path, monkeypatch):
     full, quick = reports
     validation.write_validation(full, None, tmp_path / "v.md", tmp_path / "v", tmp_path / "pkg")

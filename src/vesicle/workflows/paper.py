@@ -240,7 +240,7 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
             stores.append(r["store"])
             out["figures"].append(r["figure"])
             out["tables"].append(r["table"])
-            out["parameters"][name] = r["config"]
+            out["parameters"][name] = Path(r["config"]).name  # beside the item's record
             d = read_sweep_config(r["config"]).discretisation
             out.setdefault("resolutions", {})[name] = f"N = {d.degree}, {d.grid}×{2 * d.grid}"
             if r["status"]["failed"]:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import csv
 import io
 import json
+import os
 from importlib import resources
 from pathlib import Path
 
@@ -58,10 +59,36 @@ def collect(outdir: str | Path) -> dict:
         comps = {}
         for c in record.get("comparisons", []):
             comps.setdefault(c.get("key", c["quantity"]), c)
-        out[item.key] = {"title": item.title, "quick": bool(record.get("quick")),
+        out[item.key] = {"title": item.title, "what": item.what,
+                         "quick": bool(record.get("quick")),
                          "resolution": _resolution(record), "status": record.get("status"),
-                         "seconds": record.get("seconds"), "comparisons": comps}  # fmt: skip
+                         "seconds": record.get("seconds"), "comparisons": comps,
+                         "figures": record.get("figures", []),
+                         "note": record.get("note", "")}  # fmt: skip
     return out
+
+
+def items_markdown(full: dict, full_dir: str | Path, page_dir: str | Path) -> list[str]:
+    """The items of the full report, one row each: status, resolution, wall time, its
+    figures (linked from the page), how many of its values are compared, the command."""
+    lines = ["### The full report's items (generated)", "",
+             "Every item the full report has finished (the others are not computed yet), with "
+             "its resolution and its wall time on the 2-core machine (while the other items "
+             "of the same call ran beside it), and its figures.", "",
+             "| item | what | status | resolution | wall time | figures | compared | "
+             "reproduce |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for key, item in full.items():
+        figures = ", ".join(
+            f"[{Path(f).name}]({os.path.relpath(Path(full_dir) / f, page_dir)})"
+            for f in item["figures"]) or "—"  # fmt: skip
+        comps = item["comparisons"].values()
+        compared = sum(1 for c in comps if c.get("compared", True) and c.get("ours") is not None)
+        seconds = item.get("seconds")
+        wall = "—" if seconds is None else f"{seconds / 60:.1f} min"
+        cells = [item["title"], item["what"], item["status"], item["resolution"], wall, figures,
+                 f"{compared} of {len(item['comparisons'])}", f"`vesicle paper --only {key}`"]
+        lines.append("| " + " | ".join(str(x).replace("|", "\\|") for x in cells) + " |")
+    return [*lines, ""]
 
 
 def _resolution(record: dict) -> str:
@@ -121,9 +148,11 @@ def _status(r: dict) -> str:
     return "compared" if r["full_compared"] else "listed, not compared"
 
 
-def markdown(table: list[dict], full_dir: str, quick_dir: str | None) -> str:
-    """The page's generated section (between :data:`BEGIN` and :data:`END`)."""
-    lines = [BEGIN, "", "### The report's comparisons (generated)", "",
+def markdown(table: list[dict], full_dir: str, quick_dir: str | None,
+             items: list[str] | None = None) -> str:
+    """The page's generated section (between :data:`BEGIN` and :data:`END`); ``items``: the
+    lines of :func:`items_markdown`, first."""
+    lines = [BEGIN, "", *(items or []), "### The report's comparisons (generated)", "",
              f"From the full report in `{full_dir}`"
              + (f" and the quick report in `{quick_dir}`" if quick_dir else "")
              + ": every value an item compares with the paper (SPEC §14) or with our own "
@@ -166,9 +195,10 @@ def write_validation(full_dir: str | Path, quick_dir: str | Path | None, page: s
     table = rows(full, quick)
     page = Path(page)
     text = page.read_text() if page.exists() else "# Validation\n"
-    write_text_atomically(page, _replace_section(text, markdown(table, str(full_dir),
-                                                                None if quick_dir is None
-                                                                else str(quick_dir))))  # fmt: skip
+    items = items_markdown(full, full_dir, page.parent.resolve() if page.parent.exists()
+                           else page.parent)  # fmt: skip
+    write_text_atomically(page, _replace_section(text, markdown(
+        table, str(full_dir), None if quick_dir is None else str(quick_dir), items)))
     folder = Path(data)
     folder.mkdir(parents=True, exist_ok=True)
     buffer = io.StringIO()
