@@ -951,6 +951,11 @@ def _class_convergence(rows: list[dict], degree: int) -> dict:
     return {"same": same, "different": different, "text": text}
 
 
+#: Where the full report's item costs were measured: the call of 2026-12-07 that computed the
+#: stability items at once on one LocalCluster of 2 workers (wall seconds of each item, its
+#: wait for the cores included).
+_TOGETHER = "2026-12-07, with the other stability items on 2 workers"
+
 #: The items.  ``cost``: the quick report's CPU seconds, measured 2026-12-03 at N = 4 on 12x24
 #: (its sweeps' points; the wall time of its direct computations, rounded): only the order in
 #: which the concurrent report submits their work (the longest first).
@@ -960,7 +965,7 @@ ITEMS: list[Item] = [
     Item("fig2", "Figures 2, 3, 10", "steady TT state, E_l spectra, most unstable modes",
          _fig_spectrum, cost=10),
     Item("fig4", "Figure 4", "TT inclination and deformation against chi",
-         _study_item("tt-shape-chi"), cost=55),
+         _study_item("tt-shape-chi"), cost=55, full_cost=(1782, _TOGETHER)),
     Item("fig5", "Figure 5", "TT inclination against lambda, Misbah's (3.6)",
          _study_item("tt-shape-lambda"), cost=19),
     Item("fig6", "Figure 6", "TT inclination against the excess area",
@@ -973,7 +978,8 @@ ITEMS: list[Item] = [
          _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi=(1.0, 3.0, 10.0),
                        quick_vs=[0.95, 0.90]), cost=100),
     Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8,
-         cost=120, full_cost=(1188, "2026-12-06, vesicle paper --only fig8, one worker")),
+         cost=120, full_cost=(1188, "2026-12-06, vesicle paper --only fig8, one worker; 4751 s "
+                              "on 2026-12-07 with 10 other items on the 2 workers")),
     Item("fig9", "Figure 9", "relaxation of psi from a perturbed start against the stability",
          _fig9, cost=200),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
@@ -984,7 +990,8 @@ ITEMS: list[Item] = [
     Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda (TT branches; TR and TU runs "
          "averaged over whole periods)", _study_item("stress-lambda-runs", "stress-lambda"),
          cost=220),
-    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi"), cost=80),
+    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi"), cost=80,
+         full_cost=(3411, _TOGETHER)),
     Item("fig17", "Figures 17, 20", "stress decomposition and the equivalent ellipsoid",
          _study_item("stress-split"), cost=30),
     Item("fig18", "Figures 18, 19, 21", "the equivalent ellipsoid's stress maps",
