@@ -468,6 +468,13 @@ def test_only_settled_periods_are_counted():
     wrapped = (angle + np.pi / 2) % np.pi - np.pi / 2
     # 8 passages through -pi/2 in t < 30: 7 half turns between them, all equal
     assert settled_periods(tt, wrapped) == 7
+    # a TT run creeping under the drift control: psi falls by 1.7e-6 at each correction (every
+    # 1.0) and rises by 2e-8 between (N = 4, lam = 7.50, chi = 0.2, dt_max 0.1: it stopped on
+    # "periods" in TT before MIN_SWING): regular minima, but swings far below any TR's
+    # (its last saves: increments alternating -1.7e-6 and +2e-8, saved every 0.5)
+    ts = np.arange(0.0, 40.0, 0.5)
+    creep = -0.0128 + np.concatenate([[0.0], np.cumsum(np.tile([-1.7e-6, 2e-8], 40)[:79])])
+    assert settled_periods(ts, creep) == 0
 
 
 def test_a_run_stopped_on_settled_periods_is_classified_from_the_whole_run():

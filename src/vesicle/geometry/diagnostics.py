@@ -300,6 +300,12 @@ def classify_regime(
 SETTLE_TOL = 0.02
 
 
+#: The smallest swing of psi over a TR period that counts as one (rad): the psi spread below
+#: which :func:`classify_regime` calls a run TT.  Without it a TT run's drift-control sawtooth
+#: (corrections every 1.0, swings of 1e-7 at N = 4, lam = 7.50, chi = 0.2) counted as periods.
+MIN_SWING = 1e-3
+
+
 def settled_periods(t: np.ndarray, psi: np.ndarray, tol: float = SETTLE_TOL) -> int:
     """How many of the last whole periods of psi (TR: between refined minima; TU: half turns)
     agree with each other: each period's length, and in TR the swing of psi over it, within
@@ -324,7 +330,7 @@ def settled_periods(t: np.ndarray, psi: np.ndarray, tol: float = SETTLE_TOL) -> 
         ok = np.ptp(tail) <= tol * np.mean(tail)
         if ok and swings is not None:
             sw = np.asarray(swings[-k:])
-            ok = np.mean(sw) > 0 and np.ptp(sw) <= tol * np.mean(sw)
+            ok = np.min(sw) > MIN_SWING and np.ptp(sw) <= tol * np.mean(sw)
         if not ok:
             break
         count = k
