@@ -969,7 +969,9 @@ ITEMS: list[Item] = [
     Item("fig5", "Figure 5", "TT inclination against lambda, Misbah's (3.6)",
          _study_item("tt-shape-lambda"), cost=19),
     Item("fig6", "Figure 6", "TT inclination against the excess area",
-         _study_item("tt-excess-area"), cost=16),
+         _study_item("tt-excess-area"), cost=16,
+         full_cost=(287, "2026-12-07, with 7 other items on 2 workers, some of its branches "
+                         "computed in the call before")),
     Item("fig7", "Figures 7, 13", "neutral curves and the S-Lambda plane",
          # quick: the paper's Figure 7 volumes, their Hopf part only (measured at N = 4 on 16x32
          # with the fold part, chi = 0.2 ... 10 and the type change located: 23 min for v = 0.95,
