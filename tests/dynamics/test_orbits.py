@@ -111,3 +111,79 @@ def test_tilt_growth_says_when_the_angle_is_not_small():
     g = tilt_growth(T, np.zeros_like(T), _frames(cone))
     assert not g.small and "not a small tilt" in g.detail
     assert g.angles == pytest.approx(np.pi / 2 - 0.6, rel=1e-9)
+
+
+def _cone(t: np.ndarray, half_angle, period) -> np.ndarray:
+    """The long axis on a cone about y of the given half-angle (a number or an array over t),
+    turning about y with ``period``."""
+    phase = 2 * np.pi * t / period
+    half_angle = np.broadcast_to(half_angle, t.shape)
+    return np.stack([np.sin(half_angle) * np.cos(phase), np.cos(half_angle),
+                     np.sin(half_angle) * np.sin(phase)], axis=1)  # fmt: skip
+
+
+def test_settled_orbit_stops_a_settled_precession_only():
+    """settled_orbit: two windows of 2 periods (10 time units each) at the end of the run must
+    agree in period and size within 2 %.  By construction: a constant cone has settled; a cone
+    shrinking as 0.6 + 0.3 exp(-t / 20) has window means 0.6 + 0.3 * (mean of exp over [20, 30]
+    and [30, 40]) = 0.686 and 0.652, 5 % apart, so it has not; a run of 15 holds no two windows
+    of 10."""
+    from vesicle.geometry.diagnostics import settled_orbit
+
+    settled = settled_orbit(T, _frames(_cone(T, 0.6, 5.0)), 2)
+    assert settled is not None and settled.name == "precession"
+    assert settled.period == pytest.approx(5.0, rel=1e-3)
+    assert "settled" in settled.detail
+    shrinking = _cone(T, 0.6 + 0.3 * np.exp(-T / 20.0), 5.0)
+    assert classify_orbit(T, _frames(shrinking)).name == "precession"  # a class, but moving
+    assert settled_orbit(T, _frames(shrinking), 2) is None
+    short = T <= 15.0
+    assert settled_orbit(T[short], _frames(_cone(T[short], 0.6, 5.0)), 2) is None
+    with pytest.raises(ValueError, match="at least 2"):
+        settled_orbit(T, _frames(_cone(T, 0.6, 5.0)), 1)
+
+
+def test_settled_orbit_sees_a_drifting_period_and_other_classes():
+    """A precession whose period lengthens from 5 to 6 over the run (the phase integral of
+    1 / P(t) with P linear in t) has windows' periods about 5.6 and 5.9 (5 % apart): not settled.
+    A figure-8 with constant amplitude has settled; a vorticity-TT state and an in-plane
+    tumbling are not judged (steady_tol and settled_periods stop those)."""
+    from vesicle.geometry.diagnostics import settled_orbit
+
+    rate = 1.0 / (5.0 + T / 40.0)  # revolutions per time unit, P from 5 to 6
+    phase = 2 * np.pi * np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1])
+                                                         * np.diff(T))])  # fmt: skip
+    drifting = np.stack([np.sin(0.6) * np.cos(phase), np.full_like(T, np.cos(0.6)),
+                         np.sin(0.6) * np.sin(phase)], axis=1)  # fmt: skip
+    assert classify_orbit(T, _frames(drifting)).name == "precession"
+    assert settled_orbit(T, _frames(drifting), 2) is None
+    w = 2 * np.pi / 3.0
+    eight = np.stack([np.ones_like(T), 0.3 * np.sin(0.5 * w * T), 0.3 * np.sin(w * T)], axis=1)
+    settled = settled_orbit(T, _frames(eight), 2)
+    assert settled is not None and settled.name == "figure-8"
+    still = np.tile([[0.01, 1.0, 0.0]], (T.size, 1))
+    flat = np.stack([np.cos(0.3 * T), np.zeros_like(T), np.sin(0.3 * T)], axis=1)
+    assert settled_orbit(T, _frames(still), 2) is None
+    assert settled_orbit(T, _frames(flat), 2) is None
+
+
+def test_a_run_stops_on_its_settled_orbit():
+    """The time stepping's stop criterion (``orbits``) on a run's saved series: "orbit" once
+    the precession has settled, "" while it has not or when the criterion is off."""
+    from types import SimpleNamespace
+
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import _should_stop
+    from vesicle.model.parameters import Discretisation, Physics
+
+    def run(axis):
+        return SimpleNamespace(n_saved=T.size - 1, series={"t": T, "axes": _frames(axis),
+                                                           "psi": np.zeros_like(T)})  # fmt: skip
+
+    on = RunParameters(Physics(), Discretisation(), steady_tol=0.0, orbits=2)
+    off = on.replace(orbits=0)
+    assert _should_stop(on, run(_cone(T, 0.6, 5.0)), None) == "orbit"
+    assert _should_stop(on, run(_cone(T, 0.6 + 0.3 * np.exp(-T / 20.0), 5.0)), None) == ""
+    assert _should_stop(off, run(_cone(T, 0.6, 5.0)), None) == ""
+    with pytest.raises(ValueError, match="orbits must be 0"):
+        on.replace(orbits=1)

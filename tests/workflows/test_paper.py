@@ -336,7 +336,7 @@ def test_tilted_starts_from_shapes_of_the_in_plane_run(tmp_path, monkeypatch):
 
     item = next(i for i in ITEMS if i.key == "fig23")
     options = {"grid": 12, "t_end": 0.2, "tilted": [], "snapshot": [(11.0, 54.0)],
-               "phases": [0.0, 0.5], "snapshot_t": 0.4}  # fmt: skip
+               "phases": [0.0, 0.5], "snapshot_t": 0.4, "orbits": 2}  # fmt: skip
     build_report(tmp_path, quick=True, items=[item], options=options)
     with open(tmp_path / "fig23" / "fig23.csv") as f:
         rows = list(csv.DictReader(f))
@@ -348,6 +348,10 @@ def test_tilted_starts_from_shapes_of_the_in_plane_run(tmp_path, monkeypatch):
     start = diagnose(in_plane.shape(-1)).axes[0]
     assert abs(start[1]) < 1e-9  # in the shear plane
     tilted = read_run(tmp_path / "fig23" / "snap_lam11_tilt54_phase0.000_N4_12.h5")
+    # the orbit stop asked for (the full report's TILTED_ORBITS) reaches the tilted runs; these
+    # end at t_end, far too short for it, and say so
+    assert tilted.parameters["orbits"] == 2 and tilted.parameters["periods"] == 2
+    assert {r["stopped"] for r in rows} == {"t_end"}
     assert abs(diagnose(tilted.shape(0)).axes[0][1]) == pytest.approx(np.sin(np.radians(54)),
                                                                        abs=1e-2)  # fmt: skip
     monkeypatch.setattr("vesicle.geometry.diagnostics.summarize",

@@ -8,6 +8,7 @@ import sys
 import threading
 import time
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from hypothesis import given, settings
@@ -507,6 +508,35 @@ def test_a_run_point_cut_short_resumes_from_its_run_file(tmp_path, caplog):
     assert entry["result"]["t_final"] == pytest.approx(0.12)
     assert entry["result"]["final"]["psi"] == pytest.approx(float(whole.series["psi"][-1]),
                                                             abs=1e-12)  # fmt: skip
+
+
+def test_flow_time_gives_the_saves_and_steps_in_units_of_one_over_chi(tmp_path):
+    """[task] flow_time = true: a run point at chi = 2 with save_every = dt_max = 0.1 in units
+    of 1 / chi saves every 0.05 (to t_end 0.1: at 0, 0.05, 0.1) and steps at most 0.05; without
+    it, every 0.1.  A point at chi = 0 (no time scale) is refused."""
+    from vesicle.io.files import read_run
+
+    def sweep(flag: str, name: str):
+        body = (f'[sweep]\ntask = "run"\nout = "{name}.h5"\n[grid]\nlam = [2.0]\nchi = [2.0]\n'
+                "[run]\nt_end = 0.1\nsave_every = 0.1\ndt_max = 0.1\nsave_fields = false\n"
+                f"{flag}" + SMALL)  # fmt: skip
+        store = run_sweep(read_sweep_config(write(tmp_path, body, f"{name}.toml")), workers=1)
+        (record,) = store.records.values()
+        assert record["status"] == "done", record
+        (path,) = (tmp_path / f"{name}_runs").glob("*.h5")
+        return read_run(path)
+
+    scaled = sweep("[task]\nflow_time = true\n", "scaled")
+    assert scaled.parameters["save_every"] == pytest.approx(0.05)
+    assert scaled.parameters["dt_max"] == pytest.approx(0.05)
+    assert np.asarray(scaled.series["t"]) == pytest.approx([0.0, 0.05, 0.1])
+    plain = sweep("", "plain")
+    assert np.asarray(plain.series["t"]) == pytest.approx([0.0, 0.1])
+    from vesicle.model.parameters import Physics
+    from vesicle.workflows.tasks import _run_settings
+
+    with pytest.raises(ValueError, match="flow_time needs chi > 0"):
+        _run_settings(Physics(chi=0.0, flow="none"), {"flow_time": True}, {"run": {}})
 
 
 def test_a_stability_sweep_on_the_vorticity_branch(tmp_path):

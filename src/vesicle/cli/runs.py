@@ -285,6 +285,14 @@ def _write_config(ctx, options, config_path, path: Path, overwrite: bool) -> Non
     "TR in swing, to 2 %: the start-up transient is not counted; at least 2).",
 )
 @click.option(
+    "--orbits",
+    type=int,
+    default=_default("orbits"),
+    help="Out-of-plane runs (--tilt): stop once the long axis's precession or figure-8 has run "
+    "this many of its periods twice over, the two windows agreeing in period and size to 2 % "
+    "(0: never; at least 2).",
+)
+@click.option(
     "--split-stress",
     is_flag=True,
     help="Also store the bending and flow parts of the stress at saved steps (2 more solves each).",

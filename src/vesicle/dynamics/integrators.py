@@ -140,6 +140,9 @@ RUN_DEFAULTS = {
     "recenter_threshold": 1e-4,
     "steady_tol": 1e-3,  # stop when max |dr/dt| falls below this (0: never)
     "periods": 0,  # stop after this many settled psi periods (0: never; analysis.settled_periods)
+    # stop once the long axis's orbit out of the plane (precession, figure-8) has run this many of
+    # its periods twice over, alike (0: never; diagnostics.settled_orbit; SPEC §13)
+    "orbits": 0,
     "split_stress": False,  # also store S^B and S^V at saved steps (two more solves each)
     "save_fields": True,  # store the tension and the membrane velocity on the grid
     "checkpoint_every": 60.0,  # wall seconds between checkpoints
@@ -194,6 +197,7 @@ class RunParameters:
     recenter_threshold: float
     steady_tol: float
     periods: int
+    orbits: int
     split_stress: bool
     save_fields: bool
     checkpoint_every: float
@@ -253,6 +257,10 @@ class RunParameters:
         if self.periods < 0 or self.periods == 1:
             raise ValueError(f"periods must be 0 (never stop on periods) or at least 2 (the "
                              f"last ones are compared), got {self.periods}")  # fmt: skip
+        if self.orbits < 0 or self.orbits == 1:
+            raise ValueError(f"orbits must be 0 (never stop on the orbit) or at least 2 (two "
+                             f"windows of that many periods are compared), got "
+                             f"{self.orbits}")  # fmt: skip
         if self.perturb >= 1.0:  # the largest radius change as large as the mean radius: the
             # radius goes through zero somewhere, which no radial shape can hold (SPEC §2)
             raise ValueError(f"perturb is the largest radius change relative to the mean radius "
@@ -361,7 +369,8 @@ class StepState:
     volume0: float = 0.0
     previous_error: float = 1.0  # the step-size controller's memory
     last_dt: float = 0.0  # the step that reached ``t`` (recorded with the state it reached)
-    stopped: str = ""  # why the run ended: "t_end", "steady" (steady_tol), "periods"; "" running
+    stopped: str = ""  # why the run ended: "t_end", "steady" (steady_tol), "periods", "orbit"
+    # (orbits); "" running
     corrections: dict = field(
         default_factory=lambda: {"area": 0.0, "volume": 0.0, "recentered": 0, "evaluations": 0}
     )

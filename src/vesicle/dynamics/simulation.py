@@ -28,9 +28,11 @@ from vesicle.dynamics.integrators import (
     post_step,
 )
 from vesicle.geometry.diagnostics import (
+    ORBIT_TOL,
     SETTLE_TOL,
     classify_regime,
     diagnose,
+    settled_orbit,
     settled_periods,
     summarize,
 )
@@ -202,7 +204,7 @@ def simulate(
         run, state = resume, StepState.from_checkpoint(resume.checkpoint)
         integ.previous_error = state.previous_error
         integ.solves = state.solves
-        for key in ("t_end", "periods", "steady_tol"):  # the stop criteria may change
+        for key in ("t_end", "periods", "orbits", "steady_tol"):  # the stop criteria may change
             run.parameters[key] = getattr(params, key)
         state.stopped = ""
         integ.restore_anchor(state.anchor)  # a viscous membrane's preconditioner, as it was
@@ -305,7 +307,7 @@ def _loop(params, integ, run, state, current, checkpoint, progress) -> None:
 
 
 def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> str:
-    """Why the run stops early ("steady" or "periods"), or "" to go on."""
+    """Why the run stops early ("steady", "periods" or "orbit"), or "" to go on."""
     if params.steady_tol > 0 and np.max(np.abs(current.rate)) < params.steady_tol:
         log.info("steady state: max |dr/dt| coefficient below %g", params.steady_tol)
         return "steady"
@@ -319,4 +321,11 @@ def _should_stop(params: RunParameters, run: RunData, current: Evaluation) -> st
             log.info("%d settled periods of psi completed (lengths and swings within %g)",
                      params.periods, SETTLE_TOL)  # fmt: skip
             return "periods"
+    if params.orbits > 0 and run.n_saved >= 5 and run.n_saved % 5 == 0:  # judged every 5 saves
+        orbit = settled_orbit(run.series["t"], run.series["axes"], params.orbits)
+        if orbit is not None:
+            log.info("the long axis's %s has settled: %d of its periods (%.4g) twice over, "
+                     "agreeing within %g", orbit.name, params.orbits, orbit.period,
+                     ORBIT_TOL)  # fmt: skip
+            return "orbit"
     return ""

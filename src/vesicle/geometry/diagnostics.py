@@ -32,6 +32,7 @@ __all__ = [
     "out_of_plane_angle",
     "ray_radius",
     "recentered",
+    "settled_orbit",
     "settled_periods",
     "summarize",
     "tilt_growth",
@@ -404,6 +405,63 @@ def classify_orbit(t: np.ndarray, axes: np.ndarray, tail: float = 0.5) -> Orbit:
         return Orbit("figure-8", py, f"a_y period {py:.3g}, a_z period {pz:.3g}")
     return Orbit("undetermined", None, f"{turns:.2f} revolutions about y; a_y, a_z periods "
                  f"{py}, {pz}: run longer")  # fmt: skip
+
+
+#: How closely the last two windows of an orbit must agree (its period, and its size: the mean
+#: angle of the long axis from y in a precession, the swing of ``a_y`` in a figure-8) for
+#: :func:`settled_orbit` to call it settled: the same 2 % as :data:`SETTLE_TOL` for psi.
+ORBIT_TOL = SETTLE_TOL
+
+#: The orbit classes that :func:`settled_orbit` judges: the periodic ones out of the plane (an
+#: in-plane orbit is judged by psi, :func:`settled_periods`; a vorticity-TT state is a steady
+#: shape, which ``steady_tol`` stops).
+PERIODIC_ORBITS = ("precession", "figure-8")
+
+
+def _orbit_size(name: str, a: np.ndarray) -> float:
+    """The size of an orbit of the long axis ``a`` (t, 3): a precession's mean angle from y, a
+    figure-8's swing of ``a_y``."""
+    if name == "precession":
+        return float(np.mean(np.arccos(np.clip(np.abs(a[:, 1]), 0.0, 1.0))))
+    return float(np.ptp(a[:, 1]))
+
+
+def settled_orbit(t: np.ndarray, axes: np.ndarray, periods: int,
+                  tol: float = ORBIT_TOL) -> Orbit | None:
+    """The orbit of the long axis once it has settled, else None.
+
+    Settled: the class over the last half of the run (:func:`classify_orbit`'s default, what a
+    report states) is periodic (:data:`PERIODIC_ORBITS`) with period ``P``, and the last two
+    windows of ``periods * P`` each (``periods`` >= 2: a figure-8 needs two crossings of
+    ``a_y`` in a window) are of that class, their periods within ``tol`` of their mean, and so
+    are their sizes (:func:`_orbit_size`).  A transient that drifts from one orbit to another
+    changes period or size between the windows; one that has not left the start has no class.
+    """
+    if periods < 2:
+        raise ValueError(f"periods must be at least 2, got {periods}")
+    t = np.asarray(t, float)
+    whole = classify_orbit(t, axes)
+    if whole.name not in PERIODIC_ORBITS or not whole.period:
+        return None
+    window = periods * whole.period
+    if t[-1] - t[0] < 2.0 * window:
+        return None
+    a = continuous_axes(axes)[:, 0]
+    found = []
+    for start, end in ((t[-1] - 2.0 * window, t[-1] - window), (t[-1] - window, t[-1] + 1.0)):
+        inside = (t >= start) & (t <= end)
+        if np.count_nonzero(inside) < 5:
+            return None
+        orbit = classify_orbit(t[inside], np.asarray(axes)[inside], tail=1.0)
+        if orbit.name != whole.name or not orbit.period:
+            return None
+        found.append((orbit.period, _orbit_size(whole.name, a[inside])))
+    (p1, s1), (p2, s2) = found
+    if abs(p1 - p2) > tol * 0.5 * (p1 + p2) or abs(s1 - s2) > tol * 0.5 * (s1 + s2):
+        return None
+    return Orbit(whole.name, whole.period,
+                 f"{whole.detail}; settled: the last two windows of {periods} periods agree "
+                 f"(periods {p1:.4g}, {p2:.4g}; sizes {s1:.3g}, {s2:.3g}) within {tol:g}")
 
 
 def out_of_plane_angle(axes: np.ndarray) -> np.ndarray:

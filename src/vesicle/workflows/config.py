@@ -80,6 +80,8 @@ _DESCRIPTIONS = {
     "recenter_threshold": "centroid drift (units of a) at which the shape is re-centred",
     "steady_tol": "stop once max |dr/dt| falls below this (0: never)",
     "periods": "stop after this many settled psi periods (0: never; else at least 2)",
+    "orbits": "stop once the out-of-plane orbit has run this many periods twice over, alike "
+              "(0: never; else at least 2)",
     "split_stress": "also store the bending and flow parts of the stress at saved steps",
     "save_fields": "store the tension and membrane velocity on the grid at saved steps",
     "checkpoint_every": "wall-clock seconds between checkpoints",

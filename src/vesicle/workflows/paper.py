@@ -722,6 +722,24 @@ PHASES_QUICK = (0.0, 0.5)
 SNAPSHOT_T = 30.0
 
 
+#: The full report's tilted runs stop once their orbit has settled (``RunParameters.orbits``:
+#: the last two windows of this many periods of a precession or figure-8 agree in period and
+#: size within 2 %; an in-plane end stops on as many settled psi periods), or at their t_end.
+#: The class a run reports is then not a transient by that test, and the run costs what its
+#: transient and 2 x 3 periods cost, not its t_end (about half of it at lam = 11).
+TILTED_ORBITS = 3
+#: Why a run ended early that makes it finished: a run cut short (stopped = "") is resumed.
+_FINISHED = ("steady", "periods", "orbit")
+
+
+def _finished(run, params) -> bool:
+    """Whether a run file's content needs no more steps for ``params``: it reached t_end or
+    stopped on one of its criteria (:data:`_FINISHED`)."""
+    checkpoint = run.checkpoint or {}
+    return (str(checkpoint.get("stopped", "")) in _FINISHED
+            or float(checkpoint.get("t", 0.0)) >= params.t_end - 1e-9)  # fmt: skip
+
+
 def _inplane_run(path: str, params) -> dict:
     """The in-plane run the snapshot starts come from: run until its psi periods settle
     (``params.periods``) or ``params.t_end``; a file that stopped so is not run again."""
@@ -731,10 +749,8 @@ def _inplane_run(path: str, params) -> dict:
 
     run = read_run(path) if Path(path).exists() else None
     if run is not None and run.checkpoint is not None:
-        s = summarize(run)
-        if (s["stopped"] in ("periods", "steady")  # a run cut short has stopped = ""
-                or float(run.checkpoint["t"]) >= params.t_end - 1e-9):  # fmt: skip
-            return s
+        if _finished(run, params):  # a run cut short has stopped = ""
+            return summarize(run)
     else:
         run = None
     return summarize(simulate(params, out=path, resume=run))
@@ -767,14 +783,14 @@ def _snapshot_run(path: str, params, source: str, phase: float) -> dict:
     run = read_run(path) if Path(path).exists() else None
     if run is not None and run.checkpoint is None:
         run = None
-    if run is None or float(run.checkpoint["t"]) < params.t_end - 1e-9:
+    if run is None or not _finished(run, params):
         run = simulate(params, out=path, start=None if run is not None else shape, resume=run)
     return {**summarize(run), "start_t": t_start, "phase": phase}
 
 
 def _tilted_run(path: str, params) -> dict:
-    """One tilted start run to ``params.t_end`` (resumed from its file when cut short or asked to
-    go further); returns its summary."""
+    """One tilted start run to ``params.t_end`` or its stop criteria (resumed from its file when
+    cut short or when t_end grew; one that stopped on a criterion is finished); its summary."""
     from vesicle.dynamics.simulation import simulate
     from vesicle.geometry.diagnostics import summarize
     from vesicle.io.files import read_run
@@ -782,8 +798,8 @@ def _tilted_run(path: str, params) -> dict:
     run = read_run(path) if Path(path).exists() else None
     if run is not None and run.checkpoint is None:  # written before its first checkpoint
         run = None
-    if run is None or float(run.checkpoint["t"]) < params.t_end - 1e-9:  # new, cut short or
-        run = simulate(params, out=path, resume=run)  # asked to go further: resume
+    if run is None or not _finished(run, params):  # new, cut short or asked to go further
+        run = simulate(params, out=path, resume=run)
     return summarize(run)
 
 
@@ -820,23 +836,31 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     save_every = float(options.get("save_every", 0.05 if quick else 0.1))
     cases = [(c[0], c[1], float(c[2]) if len(c) > 2 else t_end)
              for c in options.get("tilted", TILTED_QUICK if quick else TILTED)]  # fmt: skip
+    # the full report stops each tilted run once its class has settled (TILTED_ORBITS); the
+    # quick report runs to t_end, as its costs were measured
+    orbits = int(options.get("orbits", 0 if quick else TILTED_ORBITS))
+    stops = {"orbits": orbits, "periods": orbits} if orbits else {}
 
-    def run_parameters(lam, chi, g, n, **kw):
+    def run_parameters(lam, chi, g, n, dt_max=0.25, **kw):
         return RunParameters(Physics(v=0.95, lam=lam, chi=chi), Discretisation(g, n),
                              integrator="ros34pw2", rtol=1e-3, save_fields=False,
-                             dt_max=0.25, **kw)  # fmt: skip
+                             dt_max=dt_max, **kw)  # fmt: skip
 
     # a resolution never reuses another's files: N and the grid are in every file's name
     tilted = [(lam, tilt, end, g, n, f"lam{lam:g}_tilt{tilt:g}_N{n}_{g}")
               for g, n in resolutions for lam, tilt, end in cases]  # fmt: skip
     calls = [(str(folder / f"{name}.h5"),
-              run_parameters(lam, 4.0, g, n, t_end=end, save_every=save_every, tilt=tilt))
+              run_parameters(lam, 4.0, g, n, t_end=end, save_every=save_every, tilt=tilt,
+                             **stops))
              for lam, tilt, end, g, n, name in tilted]  # fmt: skip
     tu_cases = options.get("tilted_tu", TILTED_TU_QUICK if quick else TILTED_TU)
     tu_names = [f"tu_lam{lam:g}_chi{chi:g}_tilt{tilt:g}_N{degree}_{grid}"
                 for lam, chi, tilt in tu_cases]  # fmt: skip
     calls += [(str(folder / f"{name}.h5"),
+               # the saves and the largest step scale with the flow's time 1 / chi (the quick
+               # report has no such case): at chi = 0.2, 0.5 each, not 0.25 fixed
                run_parameters(lam, chi, grid, degree, tilt=tilt, save_every=0.1 / chi,
+                              dt_max=0.25 if quick else 0.1 / chi, steady_tol=0.0,
                               t_end=float(options.get("tumbling_t_end", 120.0 / chi))))
               for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
     summaries = _map(options, _tilted_run, calls)
@@ -857,7 +881,7 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                 name = f"snap_lam{lam:g}_tilt{tilt:g}_phase{phase:.3f}_N{n}_{g}"
                 snap_calls.append((str(folder / f"{name}.h5"),
                                    run_parameters(lam, 4.0, g, n, t_end=t_end, tilt=tilt,
-                                                  save_every=save_every),
+                                                  save_every=save_every, **stops),
                                    source, phase))  # fmt: skip
                 snap_keys.append((lam, tilt, phase, g, n, name))
     snap_summaries = _map(options, _snapshot_run, snap_calls)
@@ -868,8 +892,8 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
         r = {"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0, "regime": s["regime"],
              "orbit": orbit.get("class"), "orbit_period": orbit.get("period"),
              "psi_period": s["period"], "detail": orbit.get("detail", s["regime_detail"]),
-             "t_end": s["t_final"], "solves": s["solves"], "degree": n, "grid": g,
-             "phase": phase}  # fmt: skip
+             "t_end": s["t_final"], "stopped": s["stopped"], "solves": s["solves"],
+             "degree": n, "grid": g, "phase": phase}  # fmt: skip
         return {**({"start": start} if start else {}), **r}
 
     for (lam, tilt, _, g, n, _), s in zip(tilted, summaries[: len(tilted)], strict=True):
@@ -913,13 +937,18 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                     "starts: the tilted spheroid, and (SPEC §13) shapes of the in-plane run at "
                     "several phases of its last period, rotated out of the plane by the same "
                     "tilt" + (f" ({phase_note})" if phase_note else "") + "; "
+                    + (f"each run stopped once its orbit had settled (the last two windows of "
+                       f"{orbits} of its periods agreeing in period and size within 2 %; "
+                       f"column stopped = orbit) or at t_end (stopped = t_end: its class is "
+                       f"over the last half, not tested for a transient); " if orbits else "")
                     + (f"in N: {convergence['text']}; " if convergence["text"] else "")
                     + "tumbling against tilt (fig23_tumbling_tilt.csv): the out-of-plane angle's "
                     "growth per half turn of the in-plane TU",
             "parameters": {"v": 0.95, "chi": 4.0, "degree": degree, "grid": grid,
                            "resolutions": [list(r) for r in resolutions],
                            "save_every": save_every,
-                           "t_end": t_end, "integrator": "ros34pw2", "rtol": 1e-3,
+                           "t_end": t_end, "orbits": orbits, "integrator": "ros34pw2",
+                           "rtol": 1e-3,
                            "cases": [list(c) for c in cases],
                            "snapshot_cases": [list(c) for c in snap_cases],
                            "phases": list(phases),

@@ -35,7 +35,7 @@ from vesicle.bifurcation.neutral import neutral_curve
 from vesicle.bifurcation.neutral_bq import neutral_curve_bq
 from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
 from vesicle.bifurcation.steady_codim2 import FORMS
-from vesicle.dynamics.integrators import RunParameters
+from vesicle.dynamics.integrators import RUN_DEFAULTS, RunParameters
 from vesicle.dynamics.simulation import load_parameters, simulate
 from vesicle.geometry.diagnostics import diagnose, summarize
 from vesicle.io.files import read_run, stamped
@@ -165,6 +165,9 @@ OPTIONS: dict[str, Option] = {o.key: o for o in (
            "the critical Bq (a list or a comma list).", cli=False),
     Option("psi", (str, list), "-0.6:0.8", "Inclinations of the ellipsoid map.", cli=False),
     Option("lams", (str, list), "1:12", "Viscosity ratios of the ellipsoid map.", cli=False),
+    Option("flow_time", (bool,), False, "run: the [run] save_every and dt_max are in units of "
+           "the flow's time 1 / chi of each point, so that a sweep over chi saves and steps "
+           "alike per period (chi T varies little with chi).", cli=False),
 )}  # fmt: skip
 
 
@@ -336,8 +339,25 @@ def _ellipsoid_map(physics: Physics, disc: Discretisation, options: dict, settin
             **{k: np.asarray(m[k]).tolist() for k in ("S_xz", "N1", "N2")}})  # fmt: skip
 
 
+#: The run settings that ``[task] flow_time`` gives in units of the flow's time 1 / chi.
+FLOW_TIME_KEYS = ("save_every", "dt_max")
+
+
+def _run_settings(physics: Physics, options: dict, settings: dict) -> dict:
+    """The point's ``[run]`` settings; with ``flow_time``, :data:`FLOW_TIME_KEYS` divided by
+    its chi (the defaults too, where the table leaves them out)."""
+    run = dict(settings.get("run", {}))
+    if option_value(options, "flow_time"):
+        if not physics.chi > 0.0:
+            raise ValueError(f"[task] flow_time needs chi > 0 at every point, got {physics.chi}")
+        for key in FLOW_TIME_KEYS:
+            run[key] = float(run.get(key, RUN_DEFAULTS[key])) / physics.chi
+    return run
+
+
 def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    params = RunParameters(physics, disc, settings.get("solver"), **settings.get("run", {}))
+    params = RunParameters(physics, disc, settings.get("solver"),
+                           **_run_settings(physics, options, settings))  # fmt: skip
     path, resume = None, None
     if settings.get("runs_dir"):  # each point's run file, checkpointed: a point cut short by a
         # crash, Ctrl-C or a lost worker resumes from its last checkpoint when tried again
@@ -352,7 +372,8 @@ def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) 
             else:
                 # the stop criteria only decide when to stop: a run to an earlier stop is the
                 # beginning of the same trajectory, and continues exactly from its checkpoint
-                stops = {k: getattr(params, k) for k in ("t_end", "periods", "steady_tol")}
+                stops = {k: getattr(params, k)
+                         for k in ("t_end", "periods", "orbits", "steady_tol")}
                 same = load_parameters(previous).replace(**stops) == params
                 if previous.checkpoint is not None and same:
                     resume = previous
@@ -417,7 +438,7 @@ TASKS = {
                        ("values", "lam_at", "lam0", "form", "orientation", "modes", "jacobian"),
                        _neutral_incomplete),
     "ellipsoid_map": Task(_ellipsoid_map, GRID_KEYS, ("psi", "lams", "points", "jacobian")),
-    "run": Task(_run, GRID_KEYS, ()),
+    "run": Task(_run, GRID_KEYS, ("flow_time",)),
 }  # fmt: skip
 
 
