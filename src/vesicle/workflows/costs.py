@@ -215,6 +215,7 @@ STUDY_COSTS: MappingProxyType[str, StudyCost] = MappingProxyType({
     # measured with the quick runs to t = 30; they go to t = 40 since
     "stress-time": StudyCost("2 runs", 284, 226, "2 runs of 4 periods"),
     "periods-high-shear": StudyCost("4 runs", 137, 64, "6 runs of 3 periods"),
+    # measured with saves and steps of 0.5; 2.0 since 2026-12-07 (half the solves at lam = 8)
     "periods-low-shear": StudyCost("4 runs", 519, 167, "6 runs of 3 periods, T of order 100"),
     "stress-lambda-runs": StudyCost("1 run", 58, 58, "7 runs of 3 periods"),
     "stress-lambda": StudyCost("3 branches", 165, 131, "3 branches of 17 points",
