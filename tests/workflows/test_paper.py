@@ -399,3 +399,24 @@ def test_orbit_classes_are_compared_across_degrees_start_by_start():
     assert "phase 0" in differ and "N = 6 precession-y, N = 8 figure-8-x" in differ
     assert c["text"].startswith("1 of 2 starts have the same class at every N")
     assert _class_convergence([r(8, "in-plane")], 8)["text"] == ""
+
+
+def test_fig16_compares_the_shear_thinning_of_each_stable_branch(tmp_path):
+    """Figure 16's comparison from a stress-chi table made up so that the answer is known: on
+    lam = 1, S_xz = 2.5 - 0.05 ln chi at chi = 0.1, 0.3, 1, 3, 10 (linear in ln chi, so the
+    interpolation at 0.2 is exact): 1 - S(10) / S(0.2) = 0.05 ln 50 / (2.5 - 0.05 ln 0.2); on
+    lam = 8.7 the TT state is unstable at chi = 0.3: listed, not compared."""
+    from vesicle.workflows.paper import _fig16_comparisons
+
+    chis = [0.1, 0.3, 1.0, 3.0, 10.0]
+    lines = ["curve,v,lam,chi,S_xz,stable"]
+    lines += [f"lam = 1,0.95,1.0,{c},{float(2.5 - 0.05 * np.log(c))!r},True" for c in chis]
+    lines += [f"lam = 8.7,0.95,8.7,{c},2.0,{c > 0.5}" for c in chis]
+    (tmp_path / "stress-chi.csv").write_text("\n".join(lines) + "\n")
+    one, unstable = _fig16_comparisons(tmp_path)
+    expected = 0.05 * np.log(50.0) / (2.5 - 0.05 * np.log(0.2))
+    assert one["ours"] == pytest.approx(expected, rel=1e-12) and one["compared"]
+    assert one["paper"] == 0.10 and one["key"] == "S_xz reduction chi 0.2 to 10, lam = 1"
+    assert unstable["ours"] is None and not unstable["compared"]
+    assert "unstable" in unstable["note"]
+    assert _fig16_comparisons(tmp_path / "nothing") == []

@@ -11,6 +11,8 @@ __all__ = [
     "PAPER_LABEL",
     "PAPER_LAMBDA_C_CHI1",
     "PAPER_PERIOD_EXPONENT",
+    "PAPER_SHEAR_THINNING",
+    "PAPER_SHEAR_THINNING_CHI",
     "PAPER_TYPE_CHANGE",
     "TABLE1_PAPER",
 ]
@@ -32,5 +34,10 @@ PAPER_LAMBDA_C_CHI1 = 8.46
 PAPER_TYPE_CHANGE = {0.95: 0.25, 0.90: 0.6}
 #: SPEC §14: near lambda_c at low shear the tumbling period grows like (lam - lam_c)^(-1/2).
 PAPER_PERIOD_EXPONENT = 0.5
+#: The paper's Figure 16 (as issue 41 quotes it; SPEC §14: "weakly shear-thinning"): S_xz falls
+#: by "about 10 %" from chi = 0.2 to chi = 10 for each lam it shows (1, 2, 4, 8.7).
+PAPER_SHEAR_THINNING = 0.10
+#: The chi range of that reduction.
+PAPER_SHEAR_THINNING_CHI = (0.2, 10.0)
 #: SPEC §14: the fit of the relaxing psi(t) agrees with the stability analysis "to about 1 %".
 PAPER_FIT_AGREEMENT = 0.01

@@ -37,6 +37,8 @@ from vesicle.model.published import (  # the paper's stated values: one home
     PAPER_LABEL,
     PAPER_LAMBDA_C_CHI1,
     PAPER_PERIOD_EXPONENT,
+    PAPER_SHEAR_THINNING,
+    PAPER_SHEAR_THINNING_CHI,
     PAPER_TYPE_CHANGE,
     TABLE1_PAPER,
 )
@@ -219,12 +221,15 @@ def _table1(folder: Path, quick: bool, options: dict) -> dict:
             "parameters": {"cases": cases, "degrees": degrees, "grid": grid}}  # fmt: skip
 
 
-def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, bool, dict], dict]:
+def _study_item(*names: str, regimes_on: str | None = None,
+                comparisons: Callable[[Path], list[dict]] | None = None,
+                ) -> Callable[[Path, bool, dict], dict]:  # fmt: skip
     """An item drawn by the studies ``names`` (vesicle.workflows.study), run into the item's folder.
 
     ``regimes_on``: another item with neutral curves (``fig7``); when it has run, the studies'
     time-dependent runs are drawn on its phase diagrams by the regime each run's analysis found
-    (the TR and TU points of the paper's Figure 7), in ``folder/phase/``."""
+    (the TR and TU points of the paper's Figure 7), in ``folder/phase/``.  ``comparisons``:
+    the item's comparisons with the paper, from the studies' tables in its folder."""
 
     def compute(folder: Path, quick: bool, options: dict, extra: list | None = None) -> dict:
         from vesicle.workflows.study import run_studies
@@ -248,9 +253,54 @@ def _study_item(*names: str, regimes_on: str | None = None) -> Callable[[Path, b
                 out.setdefault("failures", []).append(f"{name}: {failed} point(s) failed")
         if regimes_on is not None:
             out["figures"] += _regimes_on_curves(folder, regimes_on, stores)
+        if comparisons is not None:
+            out["comparisons"] += comparisons(folder)
         return out
 
     return compute
+
+
+def _log_interp(x: float, xs: np.ndarray, ys: np.ndarray) -> float:
+    """``ys`` at ``x``, linear in log x between the two points of ``xs`` (sorted) around it."""
+    return float(np.interp(np.log(x), np.log(xs), ys))
+
+
+def _fig16_comparisons(folder: Path) -> list[dict]:
+    """Figure 16's reduction of S_xz from chi = 0.2 to 10 on each TT branch of the stress-chi
+    table, against the paper's "about 10 %" (:data:`PAPER_SHEAR_THINNING`).  S_xz at chi = 0.2
+    is interpolated in log chi between the branch's points around it.  A branch whose TT state
+    is unstable at either end is listed, not compared: the paper's curve is the period-averaged
+    stress of TR or TU there, which this study does not run."""
+    path = folder / "stress-chi.csv"
+    if not path.exists():
+        return []
+    with path.open() as f:
+        rows = list(csv.DictReader(f))
+    lo, hi = PAPER_SHEAR_THINNING_CHI
+    out = []
+    for lam in sorted({float(r["lam"]) for r in rows}):
+        pts = sorted((float(r["chi"]), float(r["S_xz"]), r["stable"] == "True")
+                     for r in rows if float(r["lam"]) == lam)  # fmt: skip
+        chis = np.array([p[0] for p in pts])
+        quantity = f"reduction of S_xz from chi = {lo:g} to {hi:g}, lam = {lam:g}"
+        key = f"S_xz reduction chi {lo:g} to {hi:g}, lam = {lam:g}"
+        if chis[0] > lo or chis[-1] < hi:
+            continue
+        near = {p for x in (lo, hi) for p in
+                ([q for q in pts if q[0] <= x][-1], next(q for q in pts if q[0] >= x))}  # fmt: skip
+        if not all(p[2] for p in near):
+            out.append(_compare(quantity, PAPER_SHEAR_THINNING, None, compared=False, key=key,
+                                note="TT unstable at an end of the range: the paper's curve "
+                                     "is the period-averaged stress of TR/TU there, which "
+                                     "this item does not run"))  # fmt: skip
+            continue
+        s_lo = _log_interp(lo, chis, np.array([p[1] for p in pts]))
+        s_hi = _log_interp(hi, chis, np.array([p[1] for p in pts]))
+        out.append(_compare(quantity, PAPER_SHEAR_THINNING, 1.0 - s_hi / s_lo, key=key,
+                            note="the paper: 'about 10 %' for each lam; ours: S_xz of the "
+                                 f"stable TT branch, {s_lo:.6g} at chi = {lo:g} (interpolated "
+                                 f"in log chi) and {s_hi:.6g} at {hi:g}"))  # fmt: skip
+    return out
 
 
 def _curves(path: Path, degrees: set[int] | None = None) -> list[dict]:
@@ -1021,7 +1071,8 @@ ITEMS: list[Item] = [
     Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda (TT branches; TR and TU runs "
          "averaged over whole periods)", _study_item("stress-lambda-runs", "stress-lambda"),
          cost=220),
-    Item("fig16", "Figure 16", "S_xz against chi", _study_item("stress-chi"), cost=80,
+    Item("fig16", "Figure 16", "S_xz against chi",
+         _study_item("stress-chi", comparisons=_fig16_comparisons), cost=80,
          full_cost=(3411, _TOGETHER)),
     Item("fig17", "Figures 17, 20", "stress decomposition and the equivalent ellipsoid",
          _study_item("stress-split"), cost=30),
