@@ -123,7 +123,11 @@ def load_study(
             data.setdefault(table, {}).update(values)
     if resolution:
         data.setdefault("discretisation", {}).update(resolution)
-    study = {"name": path.stem, "source": str(path), "quick": bool(quick), **study}
+    # a shipped study by its name, not by where this machine installed it (the config
+    # travels with a report folder that is copied and committed)
+    source = (f"the shipped study {path.stem}" if path == shipped.get(path.stem)
+              else str(path))  # fmt: skip
+    study = {"name": path.stem, "source": source, "quick": bool(quick), **study}
     if path == shipped.get(path.stem) and study_cost(path.stem) is not None:
         study["cost"] = study_cost(path.stem)  # the one table of measured costs
     return study, data
