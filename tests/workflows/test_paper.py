@@ -420,3 +420,31 @@ def test_fig16_compares_the_shear_thinning_of_each_stable_branch(tmp_path):
     assert unstable["ours"] is None and not unstable["compared"]
     assert "unstable" in unstable["note"]
     assert _fig16_comparisons(tmp_path / "nothing") == []
+
+
+def test_an_item_counts_what_it_computed(tmp_path):
+    """count_work on a folder made up here: a branch cache of 3 points, a Table 1 row, a run
+    of its own (its solves as its summary counts them) and the same run again inside a sweep's
+    `*_runs/` folder (counted with the sweep, not twice); item.json and figures are not work."""
+    import shutil
+
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.geometry.diagnostics import summarize
+    from vesicle.model.parameters import Discretisation, Physics
+    from vesicle.workflows.paper import count_work
+    from vesicle.workflows.validation import work_text
+
+    (tmp_path / "branch.json").write_text(json.dumps({"points": [{}, {}, {}]}))
+    (tmp_path / "row.json").write_text(json.dumps({"omega_R": 2.9, "omega_I": -0.08}))
+    (tmp_path / "item.json").write_text(json.dumps({"points": [{}] * 7}))
+    (tmp_path / "figure.png").write_bytes(b"")
+    run = simulate(RunParameters(Physics(), Discretisation(12, 4), t_end=0.02, save_every=0.01,
+                                 save_fields=False), out=tmp_path / "run.h5")  # fmt: skip
+    (tmp_path / "s_runs").mkdir()
+    shutil.copy(tmp_path / "run.h5", tmp_path / "s_runs" / "point.h5")
+    solves = summarize(run)["solves"]
+    assert solves > 0
+    assert count_work(tmp_path) == {"states": 4, "runs": 1, "solves": solves}
+    assert work_text(count_work(tmp_path)) == f"4 steady states, 1 run ({solves} solves)"
+    assert work_text(None) == "—"

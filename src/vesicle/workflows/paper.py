@@ -1201,6 +1201,62 @@ def _compute_item(outdir: Path, item: Item, quick: bool, options: dict,
     return _write_record(outdir, item, content, quick, progress)
 
 
+def _json_states(data) -> int:
+    """Steady states in a JSON cache of an item: a branch's or curve's points, else one state
+    (a Table 1 row, fig9's eigenvalue) where it holds one, else none."""
+    if not isinstance(data, dict):
+        return 0
+    if isinstance(data.get("points"), list):
+        return len(data["points"])
+    return 1 if ("omega_R" in data or "omega" in data) else 0
+
+
+def count_work(folder: Path) -> dict:
+    """What an item computed, counted from the files in its folder: ``states`` (the steady
+    states of its sweeps: a point each, or the points of its branches and neutral curves; Table
+    1's rows; steady-state files), ``runs`` (time-dependent runs) and ``solves`` (their velocity
+    solves).  A run of a sweep is counted once, from the sweep (its file in ``*_runs/`` is
+    skipped); a store or file that cannot be read is skipped."""
+    from vesicle.geometry.diagnostics import summarize
+    from vesicle.io.files import read_run
+    from vesicle.workflows.sweep import SweepStore
+
+    states = runs = solves = 0
+    for path in sorted(folder.rglob("*")):
+        if any(part.endswith("_runs") for part in path.relative_to(folder).parts[:-1]):
+            continue
+        if path.suffix == ".json" and path.name != "item.json":
+            try:
+                states += _json_states(json.loads(path.read_text()))
+            except (OSError, ValueError):
+                pass
+            continue
+        if path.suffix != ".h5":
+            continue
+        try:
+            store = SweepStore.read(path)
+        except Exception:  # not a sweep store: a run file or a steady-state file
+            store = None
+        if store is not None:
+            for record in store.records.values():
+                result = record.get("result") or {}
+                if record.get("status") != "done":
+                    continue
+                if "solves" in result:
+                    runs, solves = runs + 1, solves + int(result["solves"])
+                else:
+                    states += _json_states(result) if isinstance(result.get("points"),
+                                                                 list) else 1  # fmt: skip
+            continue
+        try:
+            run = read_run(path)
+        except Exception:  # a steady-state file: one state
+            states += 1
+            continue
+        runs, solves = runs + 1, solves + int(summarize(run)["solves"])
+    return {"states": states, "runs": runs, "solves": solves}
+
+
 def _run_compute(compute: Callable, folder: Path, quick: bool, options: dict) -> dict:
     """``compute``'s content with its status ("done", "failed" when it lists failures, or
     "error" with the exception, which is logged) and its seconds."""
@@ -1208,6 +1264,7 @@ def _run_compute(compute: Callable, folder: Path, quick: bool, options: dict) ->
     try:
         content = compute(folder, quick, options)
         content["status"] = "failed" if content.get("failures") else "done"
+        content["work"] = count_work(folder)
         content["options"] = {k: v for k, v in options.items()  # what a redraw repeats
                               if k not in ("scheduler", "workers", "priority", "draw_only")}
     except Exception as err:  # recorded on the page; the other items go on

@@ -64,6 +64,7 @@ def collect(outdir: str | Path) -> dict:
                          "resolution": _resolution(record), "status": record.get("status"),
                          "seconds": record.get("seconds"), "comparisons": comps,
                          "figures": record.get("figures", []),
+                         "work": record.get("work"),
                          "note": record.get("note", "")}  # fmt: skip
     return out
 
@@ -75,8 +76,8 @@ def items_markdown(full: dict, full_dir: str | Path, page_dir: str | Path) -> li
              "Every item the full report has finished (the others are not computed yet), with "
              "its resolution and its wall time on the 2-core machine (while the other items "
              "of the same call ran beside it), and its figures.", "",
-             "| item | what | status | resolution | wall time | figures | compared | "
-             "reproduce |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
+             "| item | what | status | resolution | wall time | computed | figures | compared "
+             "| reproduce |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for key, item in full.items():
         figures = ", ".join(
             f"[{Path(f).name}]({os.path.relpath(Path(full_dir) / f, page_dir)})"
@@ -85,10 +86,24 @@ def items_markdown(full: dict, full_dir: str | Path, page_dir: str | Path) -> li
         compared = sum(1 for c in comps if c.get("compared", True) and c.get("ours") is not None)
         seconds = item.get("seconds")
         wall = "—" if seconds is None else f"{seconds / 60:.1f} min"
-        cells = [item["title"], item["what"], item["status"], item["resolution"], wall, figures,
-                 f"{compared} of {len(item['comparisons'])}", f"`vesicle paper --only {key}`"]
+        cells = [item["title"], item["what"], item["status"], item["resolution"], wall,
+                 work_text(item.get("work")), figures, f"{compared} of {len(item['comparisons'])}",
+                 f"`vesicle paper --only {key}`"]  # fmt: skip
         lines.append("| " + " | ".join(str(x).replace("|", "\\|") for x in cells) + " |")
     return [*lines, ""]
+
+
+def work_text(work: dict | None) -> str:
+    """An item's computed work (:func:`vesicle.workflows.paper.count_work`) in words."""
+    if not work:
+        return "—"
+    def plural(n: int, word: str) -> str:
+        return f"{n} {word}" + ("" if n == 1 else "s")
+
+    parts = [plural(work["states"], "steady state")] if work.get("states") else []
+    if work.get("runs"):
+        parts.append(f"{plural(work['runs'], 'run')} ({work['solves']} solves)")
+    return ", ".join(parts) or "—"
 
 
 def _resolution(record: dict) -> str:
