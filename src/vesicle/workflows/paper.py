@@ -1034,6 +1034,8 @@ def _class_convergence(rows: list[dict], degree: int) -> dict:
 #: stability items at once on one LocalCluster of 2 workers (wall seconds of each item, its
 #: wait for the cores included).
 _TOGETHER = "2026-12-07, with the other stability items on 2 workers"
+#: The call that resumed the unfinished stability items (2026-12-07, later that day).
+_RESUMED = "2026-12-07, with 6 other items on 2 workers and a measurement run beside them"
 
 #: The items.  ``cost``: the quick report's CPU seconds, measured 2026-12-03 at N = 4 on 12x24
 #: (its sweeps' points; the wall time of its direct computations, rounded): only the order in
@@ -1042,11 +1044,11 @@ ITEMS: list[Item] = [
     Item("table1", "Table 1", "most unstable mode against the shape degree N", _table1,
          cost=30),
     Item("fig2", "Figures 2, 3, 10", "steady TT state, E_l spectra, most unstable modes",
-         _fig_spectrum, cost=10),
+         _fig_spectrum, cost=10, full_cost=(1057, _RESUMED)),
     Item("fig4", "Figure 4", "TT inclination and deformation against chi",
          _study_item("tt-shape-chi"), cost=55, full_cost=(1782, _TOGETHER)),
     Item("fig5", "Figure 5", "TT inclination against lambda, Misbah's (3.6)",
-         _study_item("tt-shape-lambda"), cost=19),
+         _study_item("tt-shape-lambda"), cost=19, full_cost=(1004, _RESUMED)),
     Item("fig6", "Figure 6", "TT inclination against the excess area",
          _study_item("tt-excess-area"), cost=16,
          full_cost=(287, "2026-12-07, with 7 other items on 2 workers, some of its branches "
@@ -1077,7 +1079,8 @@ ITEMS: list[Item] = [
     Item("fig17", "Figures 17, 20", "stress decomposition and the equivalent ellipsoid",
          _study_item("stress-split"), cost=30),
     Item("fig18", "Figures 18, 19, 21", "the equivalent ellipsoid's stress maps",
-         _study_item("tt-shape-lambda", "ellipsoid-maps"), cost=60),
+         _study_item("tt-shape-lambda", "ellipsoid-maps"), cost=60,
+         full_cost=(1007, _RESUMED)),
     Item("fig22", "Figure 22",
          "neutral curves of the vorticity-aligned branch (dashed) beside the in-plane ones",
          _neutral_item([0.95, 0.90], "neutral", orientation="vorticity",
