@@ -420,6 +420,17 @@ def test_fig16_compares_the_shear_thinning_of_each_stable_branch(tmp_path):
     assert unstable["ours"] is None and not unstable["compared"]
     assert "unstable" in unstable["note"]
     assert _fig16_comparisons(tmp_path / "nothing") == []
+    # a TU run at (8.7, 0.2) gives the unstable branch its chi = 0.2 value: 1 - 2.0 / 2.5; a
+    # run that did not settle on TR or TU (here "undetermined") gives none
+    runs = ["curve,v,lam,chi,mean.S_xz,regime,periods_seen,t_final",
+            "lam = 8.7,0.95,8.7,0.2,2.5,TU,4 half-turn jumps,300.0",
+            "lam = 8.7,0.95,8.7,0.1,2.6,undetermined,,300.0"]
+    (tmp_path / "stress-chi-runs.csv").write_text("\n".join(runs) + "\n")
+    _, from_run = _fig16_comparisons(tmp_path)
+    assert from_run["ours"] == pytest.approx(0.2, rel=1e-12) and from_run["compared"]
+    assert "TU run" in from_run["note"]
+    (tmp_path / "stress-chi-runs.csv").write_text("\n".join([runs[0], runs[2]]) + "\n")
+    assert _fig16_comparisons(tmp_path)[1]["ours"] is None
 
 
 def test_an_item_counts_what_it_computed(tmp_path):

@@ -221,6 +221,9 @@ STUDY_COSTS: MappingProxyType[str, StudyCost] = MappingProxyType({
     "stress-lambda": StudyCost("3 branches", 165, 131, "3 branches of 17 points",
                                full="1223 s wall at N = 8 on 24x48 (one worker, 2026-12-03)"),
     "stress-chi": StudyCost("4 branches", 76, 30, "4 branches of 11 points"),
+    # measured 2026-12-07 with `vesicle study stress-chi-runs --quick --workers 1` beside three
+    # other jobs on the 2 cores (the point's wall time: its CPU time is less)
+    "stress-chi-runs": StudyCost("1 run", 342, 342, "9 runs of 3 periods at lam = 8.7"),
     "stress-split": StudyCost("2 branches", 29, 16, "2 branches of 17 points"),
     "ellipsoid-maps": StudyCost("3 maps", 40, 15, "3 maps of 15 x 15 solves"),
     # measured 2026-12-07 with `vesicle study NAME --quick --workers 1`, beside two other jobs
