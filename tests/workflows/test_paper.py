@@ -352,6 +352,7 @@ def test_tilted_starts_from_shapes_of_the_in_plane_run(tmp_path, monkeypatch):
     # end at t_end, far too short for it, and say so
     assert tilted.parameters["orbits"] == 2 and tilted.parameters["periods"] == 2
     assert {r["stopped"] for r in rows} == {"t_end"}
+    assert {r["settled"] for r in rows} == {"False"}  # to t = 0.2: no orbit to test
     assert abs(diagnose(tilted.shape(0)).axes[0][1]) == pytest.approx(np.sin(np.radians(54)),
                                                                        abs=1e-2)  # fmt: skip
     monkeypatch.setattr("vesicle.geometry.diagnostics.summarize",

@@ -959,20 +959,21 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     snap_summaries = _map(options, _snapshot_run, snap_calls)
     rows, figures = [], []
 
-    def row(lam, tilt, g, n, s, start=None, phase=None):
+    def row(lam, tilt, g, n, s, name, start=None, phase=None):
         orbit = s.get("orbit") or {}
         r = {"lam": lam, "tilt_deg": tilt, "tilt_over_pi": tilt / 180.0, "regime": s["regime"],
              "orbit": orbit.get("class"), "orbit_period": orbit.get("period"),
              "psi_period": s["period"], "detail": orbit.get("detail", s["regime_detail"]),
-             "t_end": s["t_final"], "stopped": s["stopped"], "solves": s["solves"],
+             "t_end": s["t_final"], "stopped": s["stopped"],
+             "settled": _orbit_settled(folder / f"{name}.h5", s), "solves": s["solves"],
              "degree": n, "grid": g, "phase": phase}  # fmt: skip
         return {**({"start": start} if start else {}), **r}
 
-    for (lam, tilt, _, g, n, _), s in zip(tilted, summaries[: len(tilted)], strict=True):
-        rows.append(row(lam, tilt, g, n, s))
-    for (lam, tilt, phase, g, n, _), s in zip(snap_keys, snap_summaries, strict=True):
-        rows.append(row(lam, tilt, g, n, s, f"in-plane shape at t = {s['start_t']:.4g} "
-                                            f"(phase {phase:.3g})", phase))  # fmt: skip
+    for (lam, tilt, _, g, n, name), s in zip(tilted, summaries[: len(tilted)], strict=True):
+        rows.append(row(lam, tilt, g, n, s, name))
+    for (lam, tilt, phase, g, n, name), s in zip(snap_keys, snap_summaries, strict=True):
+        rows.append(row(lam, tilt, g, n, s, name, f"in-plane shape at t = {s['start_t']:.4g} "
+                                                  f"(phase {phase:.3g})", phase))  # fmt: skip
     for r in rows:
         r.setdefault("start", "tilted spheroid")
     tables = [_write_csv(folder / "fig23.csv", rows)]
@@ -1011,8 +1012,10 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                     "tilt" + (f" ({phase_note})" if phase_note else "") + "; "
                     + (f"each run stopped once its orbit had settled (the last two windows of "
                        f"{orbits} of its periods agreeing in period and size within 2 %; "
-                       f"column stopped = orbit) or at t_end (stopped = t_end: its class is "
-                       f"over the last half, not tested for a transient); " if orbits else "")
+                       f"column stopped = orbit) or at t_end; " if orbits else "")
+                    + "column settled: whether the class is not a transient by that test "
+                    f"({TILTED_ORBITS} periods twice over; false: a transient or too short a "
+                    "run, whatever the class over the last half); "
                     + (f"in N: {convergence['text']}; " if convergence["text"] else "")
                     + "tumbling against tilt (fig23_tumbling_tilt.csv): the out-of-plane angle's "
                     "growth per half turn of the in-plane TU",
@@ -1025,6 +1028,19 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                            "snapshot_cases": [list(c) for c in snap_cases],
                            "phases": list(phases),
                            "tumbling_cases": [list(c) for c in tu_cases]}}  # fmt: skip
+
+
+def _orbit_settled(path: Path, summary: dict) -> bool:
+    """Whether a tilted run's class is not a transient: it stopped on a settled orbit, settled
+    psi periods or a steady state, or its last two windows of :data:`TILTED_ORBITS` periods
+    agree (:func:`vesicle.geometry.diagnostics.settled_orbit`; a run that reached t_end)."""
+    from vesicle.geometry.diagnostics import settled_orbit
+    from vesicle.io.files import read_run
+
+    if summary["stopped"] in _FINISHED:
+        return True
+    run = read_run(path)
+    return settled_orbit(run.series["t"], run.series["axes"], TILTED_ORBITS) is not None
 
 
 def _class_convergence(rows: list[dict], degree: int) -> dict:
