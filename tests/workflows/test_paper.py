@@ -460,3 +460,20 @@ def test_an_item_counts_what_it_computed(tmp_path):
     assert count_work(tmp_path) == {"states": 4, "runs": 1, "solves": solves}
     assert work_text(count_work(tmp_path)) == f"4 steady states, 1 run ({solves} solves)"
     assert work_text(None) == "—"
+
+
+def test_a_cached_run_of_other_settings_is_stale(tmp_path):
+    """fig9 reuses its run file only when it was run with the item's settings (its solver
+    tolerances changed on 2026-12-07); a file that is not a run is stale too."""
+    from vesicle.dynamics.integrators import RunParameters
+    from vesicle.dynamics.simulation import simulate
+    from vesicle.model.parameters import Discretisation, Physics
+    from vesicle.workflows.paper import _same_run
+
+    params = RunParameters(Physics(), Discretisation(12, 4), t_end=0.01, save_every=0.01,
+                           save_fields=False)  # fmt: skip
+    simulate(params, out=tmp_path / "run.h5")
+    assert _same_run(tmp_path / "run.h5", params)
+    assert not _same_run(tmp_path / "run.h5", params.replace(solver="steady"))
+    (tmp_path / "other.h5").write_bytes(b"not a run")
+    assert not _same_run(tmp_path / "other.h5", params)

@@ -691,10 +691,27 @@ def _fig9_parameters(grid: int, degree: int):
     from vesicle.dynamics.integrators import RunParameters
     from vesicle.model.parameters import Discretisation, Physics
 
+    # the steady solver tolerances (1e-6/1e-7), as the measurement the page quotes (A8: the fit
+    # within 0.2 % of omega_R at N = 8 on 24x48): psi swings by about 4e-3 about its mean, and
+    # with the time-dependent preset (1e-3/1e-4) the fit read (2.7911, -0.1647) against the
+    # analysis's (2.9379, -0.0828) (the full report, 2026-12-07)
     return RunParameters(Physics(v=0.95, lam=8.0, chi=10.0), Discretisation(grid, degree),
-                         t_end=12.0, save_every=0.05, dt_max=0.05, integrator="ros34pw2",
-                         rtol=1e-4, save_fields=False, checkpoint_every=1e9,
+                         solver="steady", t_end=12.0, save_every=0.05, dt_max=0.05,
+                         integrator="ros34pw2", rtol=1e-4, save_fields=False,
+                         checkpoint_every=1e9,
                          steady_tol=0.0)  # the whole decay is fitted: never stop on it  # fmt: skip
+
+
+def _same_run(path: Path, params) -> bool:
+    """Whether the run file at ``path`` was run with ``params`` (a cache of other settings is
+    stale)."""
+    from vesicle.dynamics.simulation import load_parameters
+    from vesicle.io.files import read_run
+
+    try:
+        return load_parameters(read_run(path)) == params
+    except (OSError, ValueError, KeyError):
+        return False
 
 
 def _fig9(folder: Path, quick: bool, options: dict) -> dict:
@@ -708,8 +725,9 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
     sub = folder / f"N{degree}_{grid}"  # a resolution never reuses another's files
     sub.mkdir(exist_ok=True)
     cache, run_path = sub / "stability.json", sub / "run.h5"
-    if not (cache.exists() and run_path.exists()):
-        _map(options, _fig9_compute, [(str(sub), grid, degree)])
+    if not (cache.exists() and run_path.exists()) or not _same_run(run_path,
+                                                                   _fig9_parameters(grid, degree)):
+        _map(options, _fig9_compute, [(str(sub), grid, degree)])  # new, or its settings changed
     w_r, w_i = json.loads(cache.read_text())["omega"]
     run = read_run(run_path)
     t, psi = run.series["t"], run.series["psi"]
@@ -758,7 +776,7 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
                     "what the paper states",
             "parameters": {"v": 0.95, "lam": 8.0, "chi": 10.0, "degree": degree, "grid": grid,
                            "perturbation": 0.01, "t_end": 12.0, "integrator": "ros34pw2",
-                           "rtol": 1e-4}}  # fmt: skip
+                           "rtol": 1e-4, "solver": "steady"}}  # fmt: skip
 
 
 #: SPEC §13 and the paper's Fig. 23, 24: tilted starts at v = 0.95, chi = 4 as (lam, tilt in
