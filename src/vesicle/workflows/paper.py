@@ -1121,7 +1121,8 @@ ITEMS: list[Item] = [
          cost=120, full_cost=(1188, "2026-12-06, vesicle paper --only fig8, one worker; 4751 s "
                               "on 2026-12-07 with 10 other items on the 2 workers")),
     Item("fig9", "Figure 9", "relaxation of psi from a perturbed start against the stability",
-         _fig9, cost=200),
+         _fig9, cost=200, full_cost=(1847, "2026-12-07, vesicle paper --only fig9 --workers 1 "
+                                     "beside the stability items' 2 workers and a test run")),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
          _study_item("orbits", "stress-time"), cost=500),
     Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
