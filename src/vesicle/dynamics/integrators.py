@@ -153,6 +153,10 @@ RUN_DEFAULTS = {
     "viscous_solve": "factorised",
 }
 
+#: The run settings that only decide when a run stops: a run to an earlier stop is the beginning
+#: of the same trajectory, so a resumed run may change them.
+STOP_KEYS = ("t_end", "periods", "orbits", "steady_tol")
+
 #: The ways of a viscous membrane's solves in time stepping (``RunParameters.viscous_solve``).
 VISCOUS_SOLVES = ("factorised", "nested")
 

@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from vesicle.dynamics.integrators import (
+    STOP_KEYS,
     Evaluation,
     Integrator,
     RunParameters,
@@ -204,7 +205,7 @@ def simulate(
         run, state = resume, StepState.from_checkpoint(resume.checkpoint)
         integ.previous_error = state.previous_error
         integ.solves = state.solves
-        for key in ("t_end", "periods", "orbits", "steady_tol"):  # the stop criteria may change
+        for key in STOP_KEYS:  # the stop criteria may change
             run.parameters[key] = getattr(params, key)
         state.stopped = ""
         integ.restore_anchor(state.anchor)  # a viscous membrane's preconditioner, as it was

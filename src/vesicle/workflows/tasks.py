@@ -35,7 +35,7 @@ from vesicle.bifurcation.neutral import neutral_curve
 from vesicle.bifurcation.neutral_bq import neutral_curve_bq
 from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
 from vesicle.bifurcation.steady_codim2 import FORMS
-from vesicle.dynamics.integrators import RUN_DEFAULTS, RunParameters
+from vesicle.dynamics.integrators import RUN_DEFAULTS, STOP_KEYS, RunParameters
 from vesicle.dynamics.simulation import load_parameters, simulate
 from vesicle.geometry.diagnostics import diagnose, summarize
 from vesicle.io.files import read_run, stamped
@@ -372,8 +372,7 @@ def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) 
             else:
                 # the stop criteria only decide when to stop: a run to an earlier stop is the
                 # beginning of the same trajectory, and continues exactly from its checkpoint
-                stops = {k: getattr(params, k)
-                         for k in ("t_end", "periods", "orbits", "steady_tol")}
+                stops = {k: getattr(params, k) for k in STOP_KEYS}
                 same = load_parameters(previous).replace(**stops) == params
                 if previous.checkpoint is not None and same:
                     resume = previous
