@@ -15,6 +15,7 @@ import vesicle as vs
 from vesicle.bifurcation import codim2
 from vesicle.bifurcation.neutral import NeutralPoint
 from vesicle.bifurcation.neutral_codim2 import _candidates, _Curve, _winner, neutral_curve_codim2
+from vesicle.io.memo import MemoMismatch
 
 
 def _pt(kind, chi, lam, other=False, converged=True):
@@ -172,3 +173,32 @@ def test_an_interruption_carries_the_curves_traced_so_far():
     (point,) = curve["points"]
     assert point["converged"] and 11 < point["lam"] < 14  # v = 0.98's Hopf curve, 12.7 at chi = 1
     assert "points" not in partial
+
+
+def test_an_interrupted_curve_run_again_with_its_memo_replays_and_goes_on(tmp_path):
+    """Ctrl-C at the Hopf curve's first point (v = 0.98, N = 4 on 12x24), then the same call
+    with the same memo: the evaluations made before are looked up (none computed twice), the
+    rest computed, and the neutral points are those of a run never interrupted, to the
+    augmented systems' tolerance (1e-8; the resumed run's solves start from other guesses)."""
+    from vesicle.bifurcation.neutral_codim2 import CurveInterrupted, curve_memo
+
+    physics, disc, chis = vs.Physics(v=0.98), vs.Discretisation(grid=12, degree=4), [1.0, 2.0]
+    whole = neutral_curve_codim2(physics, chis, disc)
+
+    def progress(d):
+        if "lam" in d and "curve" in d:
+            raise KeyboardInterrupt
+
+    memo = curve_memo(tmp_path / "m", physics, disc)
+    with pytest.raises(CurveInterrupted):
+        neutral_curve_codim2(physics, chis, disc, memo=memo, progress=progress)
+    kept = len(memo)
+    again = curve_memo(tmp_path / "m", physics, disc)
+    resumed = neutral_curve_codim2(physics, chis, disc, memo=again)
+    assert kept > 0 and again.hits == kept and again.misses > 0
+    assert [p.chi for p in resumed.points] == [p.chi for p in whole.points] == chis
+    for a, b in zip(resumed.points, whole.points, strict=True):
+        assert a.located and b.located and a.bifurcation == b.bifurcation == "hopf"
+        assert abs(a.lambda_c - b.lambda_c) < 1e-8 * b.lambda_c
+    with pytest.raises(MemoMismatch):
+        curve_memo(tmp_path / "m", physics, vs.Discretisation(grid=12, degree=3))

@@ -203,3 +203,38 @@ def test_an_interrupted_codim2_curve_keeps_what_it_traced_in_out(tmp_path, monke
     assert data["command"].split(" ", 1)[1].startswith("neutral --chi 1,2")
     r = run("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8")
     assert r.exit_code == 130 and "nothing was kept: give --out" in r.output
+
+
+def test_an_interrupted_codim2_curve_resumes_from_its_kept_evaluations(tmp_path, monkeypatch):
+    """--out n.json keeps the codim2 curve's evaluations in n.codim2/ while it runs: after
+    Ctrl-C the message says --resume; the same command without it is refused before any work;
+    with it the memo is given back (its evaluations replayed) and removed once the curve is
+    written."""
+    import numpy as np
+
+    from vesicle.bifurcation.neutral import NeutralCurve
+    from vesicle.bifurcation.neutral_codim2 import CurveInterrupted
+
+    seen = []
+
+    def curve(physics, chis, disc, memo=None, **kwargs):
+        seen.append(len(memo))
+        memo.cached("jacobian", lambda: np.eye(2), np.zeros(3))
+        if len(seen) == 1:
+            raise CurveInterrupted({"complete": False, "interrupted": True, "method": "codim2",
+                                    "curves": [], "bt_points": [], "cusp_points": [],
+                                    "turn_points": [], "failed": []})  # fmt: skip
+        memo.cached("jacobian", lambda: pytest.fail("computed again"), np.zeros(3))
+        return NeutralCurve(physics, disc, [], None, [], 0.0, [], method="codim2")
+
+    monkeypatch.setattr(cli_steady, "neutral_curve_codim2", curve)
+    out = tmp_path / "n.json"
+    args = ("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out))
+    r = run(*args)
+    assert r.exit_code == 130 and "--resume" in r.output and (tmp_path / "n.codim2").is_dir()
+    r = run(*args)
+    assert r.exit_code != 0 and "--resume" in r.output and len(seen) == 1
+    r = run(*args, "--resume")
+    assert r.exit_code == 0, r.output
+    assert seen == [0, 1] and "replaying the 1 evaluations" in r.output
+    assert json.loads(out.read_text())["replayed"] == 2 and not (tmp_path / "n.codim2").exists()

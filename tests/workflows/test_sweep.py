@@ -409,7 +409,7 @@ def test_a_neutral_point_is_continued_in_two_parameters_by_default(monkeypatch):
     monkeypatch.setattr(sweep, "neutral_curve", lambda *a, **k: pytest.fail("traced"))
     entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12},
                       {"chi": [1.0, 3.0], "form": "curvature", "modes": "general"}, {})
-    assert seen == {"chi": [1.0, 3.0], "form": "curvature",
+    assert seen == {"chi": [1.0, 3.0], "form": "curvature", "memo": None,
                     "analysis": StabilitySettings(modes="general")}  # fmt: skip
     assert entry["status"] == "failed"
 
@@ -557,3 +557,35 @@ def test_a_stability_sweep_on_the_vorticity_branch(tmp_path):
     assert r.exit_code == 0, r.output
     direct = json.loads(r.output.strip().splitlines()[-1])
     assert result["omega_I"] == pytest.approx(direct["omega_I"], abs=1e-9)
+
+
+def test_a_codim2_curve_keeps_its_evaluations_until_it_is_complete(monkeypatch, tmp_path):
+    """A sweep's codim2 curve gets a memo in its curves folder (vesicle.io.memo): kept when
+    the curve is cut short (the next try replays it, and says so in ``replayed``), removed
+    once the curve is complete."""
+    import numpy as np
+
+    import vesicle.workflows.tasks as sweep
+    from vesicle.bifurcation.neutral import NeutralCurve
+
+    folder = tmp_path / "curves"
+    seen = []
+
+    def codim2(physics, chi, disc, memo=None, **options):
+        seen.append((memo.folder, len(memo)))
+        memo.cached("residual", lambda: np.ones(3), np.zeros(2))
+        if len(seen) == 1:
+            raise KeyboardInterrupt
+        return NeutralCurve(physics, disc, [], None, [], 0.0, [])
+
+    monkeypatch.setattr(sweep, "neutral_curve_codim2", codim2)
+    settings = {"curves_dir": str(folder)}
+    with pytest.raises(KeyboardInterrupt):
+        run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12}, {"chi": [1.0]}, settings)
+    (memo_folder, before), = seen
+    assert memo_folder.parent == folder and memo_folder.name.endswith(".codim2") and before == 0
+    assert memo_folder.exists()
+    entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12}, {"chi": [1.0]},
+                      settings)  # fmt: skip
+    assert seen[1] == (memo_folder, 1) and entry["result"]["replayed"] == 1
+    assert not memo_folder.exists()

@@ -69,6 +69,7 @@ from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint, curve_inputs
 from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_change
 from vesicle.geometry.diagnostics import diagnose
 from vesicle.geometry.surface import ShapeError
+from vesicle.io.memo import EvaluationMemo
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.settings import (
     CriticalSearch,
@@ -81,7 +82,8 @@ from vesicle.solve.solver import SolverError
 from vesicle.steady.newton import NewtonError, steady_tank_treading
 from vesicle.steady.stability import stability
 
-__all__ = ["DEFAULT_SETTINGS", "CurveInterrupted", "lam_box", "neutral_curve_codim2"]
+__all__ = ["DEFAULT_SETTINGS", "CurveInterrupted", "curve_memo", "lam_box",
+           "neutral_curve_codim2"]
 
 log = logging.getLogger(__name__)
 
@@ -747,8 +749,8 @@ def _partial(ctx: _Context, chis: Sequence[float], failed: list[dict]) -> dict:
     """What an interrupted curve had found: every fold and Hopf curve traced so far (and the
     points of the one under way) with each point's ``converged`` and ``other_unstable``, and the
     special points located.  No neutral point is picked from them (that needs the type change
-    and the rule of the module notes): ``complete`` is false, and the command is run again
-    (the continuation does not resume)."""
+    and the rule of the module notes): ``complete`` is false.  The command run again with the
+    same memo (``memo=``, ``vesicle neutral --resume``) replays its evaluations."""
     curves = [{"kind": c.kind, "end": c.curve.end,
                "points": [_point_summary(c.kind, q) for q in c.curve.points]}
               for c in ctx.curves]  # fmt: skip
@@ -966,6 +968,24 @@ def lam_box(lam_range) -> tuple[float, float]:
     return lo, hi
 
 
+def curve_memo(folder, physics: Physics, discretisation: Discretisation,
+               analysis: StabilitySettings | None = None, form: str = "spec") -> EvaluationMemo:
+    """The memo of a curve's evaluations in ``folder`` (``neutral_curve_codim2(memo=...)``),
+    for this ``v`` and flow (its ``chi`` and ``lambda`` are the curve's parameters, not part of
+    what it holds), discretisation, analysis and form.  Raises
+    :class:`~vesicle.io.memo.MemoMismatch` where ``folder`` holds another curve's."""
+    from vesicle import __version__
+
+    analysis = analysis if analysis is not None else StabilitySettings()
+    held = {k: v for k, v in physics.to_dict().items() if k not in ("lam", "chi")}
+    # the threads change no value (at most the last bits, then the lookups miss)
+    disc = {k: v for k, v in discretisation.to_dict().items() if k != "workers"}
+    return EvaluationMemo(folder, {"physics": held, "discretisation": disc,
+                                   "orientation": analysis.orientation, "modes": analysis.modes,
+                                   "jacobian": analysis.jacobian, "form": form,
+                                   "vesicle_version": __version__})  # fmt: skip
+
+
 def neutral_curve_codim2(
     physics: Physics | float,
     chi: Sequence[float],
@@ -979,6 +999,7 @@ def neutral_curve_codim2(
     locate_type_change: bool = True,
     cusps: bool = False,
     progress: Callable[[dict], None] | None = None,
+    memo: EvaluationMemo | None = None,
     **legacy,
 ) -> NeutralCurve:
     """The neutral curve through the requested ``chi`` by two-parameter continuation (see the
@@ -1013,6 +1034,10 @@ def neutral_curve_codim2(
         not reached even at N = 4).
     progress : callable, optional
         Given a summary dict of each step (curve points, searches, located points).
+    memo : EvaluationMemo, optional
+        Where the evaluations at the full resolution are kept and looked up (:func:`curve_memo`):
+        a curve interrupted and run again with the same memo replays what it computed and goes
+        on from where it stopped (the stepping searches, at N = 4 first, are computed again).
 
     Returns
     -------
@@ -1032,6 +1057,7 @@ def neutral_curve_codim2(
     seed_chi = max(chis) if side < 0 else min(chis, key=lambda c: abs(math.log(c)))
     eq = SteadyEquations(physics.replace(chi=seed_chi, lam=max(lo, 1.0)), disc, modes=modes,
                          jacobian=jacobian, form=form)  # fmt: skip
+    eq.memo = memo
     margin = 0.02
     bounds = [[math.log(chis[0]) - margin, math.log(chis[-1]) + margin], [lo, hi]]
 

@@ -91,6 +91,11 @@ PLANE_PARAMETERS = ("chi", "lam", "bq")
 BQ_ROUNDING = 1e-12
 
 
+def _inputs(x, p) -> tuple[np.ndarray, np.ndarray]:
+    """A point's inputs as the memo's keys see them (float64)."""
+    return np.asarray(x, float), np.asarray(p, float)
+
+
 class SteadyEquations(codim2.Problem):
     """The steady equations at fixed ``v`` (and flow) as a :class:`codim2.Problem` in
     ``p = (log chi, lambda)`` (the default ``plane=("chi", "lam")``), or in another plane of
@@ -100,7 +105,12 @@ class SteadyEquations(codim2.Problem):
 
     Each parameter point gets one :class:`SteadyProblem`, kept while the continuation stays
     there, so that a residual and the Jacobian at the same point share one assembly of the
-    layer potentials (the problem keeps those of its last shape)."""
+    layer potentials (the problem keeps those of its last shape).
+
+    With :attr:`memo` set, each evaluation (residual, Jacobian, parameter derivative, Jacobian
+    action) is looked up there by its inputs first and kept there when computed: a curve run
+    again with the memo of an interrupted run replays its evaluations and computes from where
+    it stopped (:mod:`vesicle.io.memo`)."""
 
     def __init__(
         self,
@@ -136,6 +146,10 @@ class SteadyEquations(codim2.Problem):
         self._kept: tuple[tuple[float, float], SteadyProblem] | None = None
         self._jacobians: OrderedDict[tuple, np.ndarray] = OrderedDict()
         self._sigma = None
+        #: an :class:`~vesicle.io.memo.EvaluationMemo` where the residuals, Jacobians, parameter
+        #: derivatives and Jacobian actions are kept and looked up (a curve that resumes by
+        #: replaying them); None: none kept
+        self.memo = None
         probe = self.problem_at(self.coordinates(physics))
         self.size = probe.basis.size
         mass = np.eye(self.size + 2)
@@ -218,6 +232,11 @@ class SteadyEquations(codim2.Problem):
         halves it; at v = 0.85, N = 8 an iterate at lambda = -27.7 ended a fold curve)."""
         if self._outside(p):
             return np.full(np.asarray(x).size, np.nan)
+        if self.memo is not None:
+            return self.memo.cached("residual", lambda: self._residual(x, p), *_inputs(x, p))
+        return self._residual(x, p)
+
+    def _residual(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         P = self.problem_at(p)
         a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
         try:
@@ -248,6 +267,15 @@ class SteadyEquations(codim2.Problem):
             J = self._jacobians[key].copy()
             self._last_jacobian = (key, J)
             return J
+        if self.memo is not None:
+            J = self.memo.cached("jacobian", lambda: self._computed_jacobian(x, p),
+                                 *_inputs(x, p))  # fmt: skip
+            self._keep_jacobian(key, J)
+            return J.copy()
+        return self._computed_jacobian(x, p)
+
+    def _computed_jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        key = self._point_key(x, p)
         P = self.problem_at(p)
         a, mu = np.asarray(x[:-2], float), np.asarray(x[-2:], float)
         M, _ = P.jacobian(a, sigma0=self._sigma)
@@ -257,11 +285,14 @@ class SteadyEquations(codim2.Problem):
         J = np.zeros((n + 2, n + 2))
         J[:n, :n] = M - np.einsum("k,kij->ij", mu, H) if self.form == "curvature" else M
         J[:n, n:], J[n:, :n] = -g.T, g
+        self._keep_jacobian(key, J)
+        return J
+
+    def _keep_jacobian(self, key: tuple, J: np.ndarray) -> None:
         self._last_jacobian = (key, J)
         self._jacobians[key] = J.copy()
         while len(self._jacobians) > KEPT_JACOBIANS:
             self._jacobians.popitem(last=False)
-        return J
 
     def parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         """``G_p`` in the plane's ``p`` (e.g. ``(log chi, lambda)``): the velocity-tension
@@ -273,6 +304,12 @@ class SteadyEquations(codim2.Problem):
         residuals instead.  NaN where the shape cannot be represented or a solve fails."""
         if self._outside(p):
             return np.full((x.size, 2), np.nan)
+        if self.memo is not None:
+            return self.memo.cached("parameter_derivative",
+                                    lambda: self._parameter_derivative(x, p), *_inputs(x, p))
+        return self._parameter_derivative(x, p)
+
+    def _parameter_derivative(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         P = self.problem_at(p)
         m = x.size - 2
         out = np.zeros((x.size, 2))
@@ -352,7 +389,17 @@ class SteadyEquations(codim2.Problem):
         """``J(x, p) Q`` for a few columns (n, k), without forming ``J``."""
         if self._outside(p):
             raise ValueError(f"parameters outside the physics: {self.plane} = {tuple(p)}")
+        if self.memo is not None:
+            return self.memo.cached("times", lambda: self._computed_times(x, p, Q),
+                                    *_inputs(x, p), Q)  # fmt: skip
+        return self._computed_times(x, p, Q)
+
+    def _computed_times(self, x: np.ndarray, p: np.ndarray, Q: np.ndarray) -> np.ndarray:
         P = self.problem_at(p)
+        if self.memo is not None and P.kept.system is None and P.kept.preconditioner is None:
+            # the Jacobian before it was looked up (a resumed curve): its factorised system
+            # preconditions the solves, as it did in the run that kept the lookups
+            self._computed_jacobian(np.asarray(x, float), np.asarray(p, float))
         m = x.size - 2
         a, mu = x[:m], x[m:]
         g = P.gradients(P.shape(a))

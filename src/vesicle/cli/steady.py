@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import shutil
 import sys
 from pathlib import Path
 
@@ -12,7 +14,11 @@ import click
 from vesicle.bifurcation.branch import branch
 from vesicle.bifurcation.checkpoint import Checkpoint, states_folder
 from vesicle.bifurcation.neutral import neutral_curve
-from vesicle.bifurcation.neutral_codim2 import CurveInterrupted, neutral_curve_codim2
+from vesicle.bifurcation.neutral_codim2 import (
+    CurveInterrupted,
+    curve_memo,
+    neutral_curve_codim2,
+)
 from vesicle.cli.base import (
     check_output,
     check_scheduler,
@@ -32,6 +38,7 @@ from vesicle.cli.options import (
     task_option,
 )
 from vesicle.io.files import stamped, write_text_atomically
+from vesicle.io.memo import MemoMismatch
 from vesicle.model.parameters import Physics
 from vesicle.model.settings import (
     ContinuationSettings,
@@ -383,6 +390,24 @@ def _clear_states(folder: Path, resume: bool, overwrite: bool) -> None:
         path.unlink()
 
 
+def memo_folder(out: str | os.PathLike) -> Path:
+    """Where a codim2 curve written to ``out`` keeps its evaluations while it is traced
+    (``curve.json`` -> ``curve.codim2/``)."""
+    out = Path(out)
+    return out.with_suffix(".codim2") if out.suffix else out.with_name(out.name + ".codim2")
+
+
+def _clear_memo(folder: Path, resume: bool, overwrite: bool) -> None:
+    """A codim2 curve's evaluations: replayed with --resume, removed with --overwrite, refused
+    otherwise (checked before any work)."""
+    if not folder.exists() or resume:
+        return
+    if not overwrite:
+        fail(f"{folder} holds the evaluations of an interrupted curve: continue it with "
+             "--resume, or start afresh with --overwrite")  # fmt: skip
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 def _neutral_kept(out: str | None, states: str | None, method: str = "trace") -> str:
     """What an interrupted ``vesicle neutral`` kept, and how to go on."""
     if method == "codim2":
@@ -393,8 +418,8 @@ def _neutral_kept(out: str | None, states: str | None, method: str = "trace") ->
         if data.get("interrupted"):
             n = sum(len(c["points"]) for c in data.get("curves", []))
             return (f"the curves traced so far ({len(data.get('curves', []))}, {n} points; "
-                    f"complete: false) are in {out}; the two-parameter continuation does not "
-                    "resume: run the command again (--overwrite) for the neutral points")
+                    f"complete: false) are in {out}, their evaluations in {memo_folder(out)}: "
+                    "continue with the same command and --resume")  # fmt: skip
         return ("nothing was kept" + ("" if out is None else f" in {out}") + ": give --out to "
                 "keep the curves traced so far on an interruption (--continuation trace keeps "
                 "each point as it is found and resumes)")
@@ -415,24 +440,38 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
                     options, type_change, cusps=False) -> None:  # fmt: skip
     """``vesicle neutral --continuation codim2``: the curve, then its points, type change, BT and
     cusp points printed (or the JSON)."""
+    memo = None
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
-        curve = neutral_curve_codim2(physics, chis, disc,
-                                     analysis=StabilitySettings(orientation, modes, jacobian),
-                                     form=form, locate_type_change=type_change, cusps=cusps,
-                                     progress=_echo_progress)  # fmt: skip
+        analysis = StabilitySettings(orientation, modes, jacobian)
+        if out is not None:
+            memo = curve_memo(memo_folder(out), physics, disc, analysis, form)
+            if len(memo):
+                click.echo(f"resuming: replaying the {len(memo)} evaluations kept in "
+                           f"{memo.folder}", err=True)  # fmt: skip
+        curve = neutral_curve_codim2(physics, chis, disc, analysis=analysis, form=form,
+                                     locate_type_change=type_change, cusps=cusps,
+                                     progress=_echo_progress, memo=memo)  # fmt: skip
     except CurveInterrupted as err:  # what was found is kept, then the interruption goes on
         write_partial(ctx, out, err.partial, physics, disc, ("lam", "chi"))
         raise
+    except MemoMismatch as err:
+        fail(f"{err}: --overwrite starts the curve afresh")
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
-        fail(str(err))
+        fail(str(err) + ("" if memo is None else
+                         f" (its evaluations are kept in {memo.folder}; --resume replays them)"))
     result = {**curve.to_dict(), "command": command_line(ctx)}
+    if memo is not None:
+        result["replayed"] = memo.hits
     if curve.failed:  # what was found is written; the command still fails
         _emit_json(result, out, as_json)
         fail("; ".join(f"no point at chi = {f['chi']:.4g} ({f['error']})" if f["chi"] is not None
                        else f["error"] for f in curve.failed))  # fmt: skip
-    if _emit_json(result, out, as_json):
+    written = _emit_json(result, out, as_json)
+    if memo is not None:  # the curve is in --out: its evaluations are no longer needed
+        memo.clear()
+    if written:
         return
     for p in result["points"]:
         note = "" if p["located"] else " (estimate: not solved to tolerance)"
@@ -483,7 +522,8 @@ def _chi_values(text: str, points: int | None) -> list[float]:
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
               help="Write the curve as JSON to this file, point by point as they are found; "
               "each point's state goes to a checkpoint folder beside it (curve.json: "
-              "curve.states/) unless --states names one.")  # fmt: skip
+              "curve.states/) unless --states names one.  codim2: the curve is written when "
+              "complete, its evaluations kept in curve.codim2/ until then (--resume).")  # fmt: skip
 @click.option(
     "--states",
     type=click.Path(file_okay=False),
@@ -496,7 +536,9 @@ def _chi_values(text: str, points: int | None) -> list[float]:
     "--resume",
     is_flag=True,
     help="Continue the curve in --out (interrupted, or with more chi): its points whose "
-    "states are kept are taken as found, the rest traced from them (the same options needed).",
+    "states are kept are taken as found, the rest traced from them (the same options needed). "
+    "With --continuation codim2: the interrupted curve is run again, its evaluations kept in "
+    "curve.codim2/ replayed, and goes on from where it stopped.",
 )
 @click.option("--overwrite", is_flag=True,
               help="Replace an existing --out curve and the states of its checkpoint folder.")
@@ -514,12 +556,17 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, cusps
         if not (math.isfinite(value) and value > 0):
             fail(f"{name} must be a positive number, got {value}")
     if continuation == "codim2":
-        for name, given in (("--states", states is not None), ("--resume", resume)):
-            if given:
-                fail(f"{name} applies to --continuation trace (the codim2 curve is written "
-                     "to --out when it is complete)")  # fmt: skip
+        if states is not None:
+            fail("--states applies to --continuation trace (the codim2 curve is written to "
+                 "--out when it is complete; its evaluations are kept beside it)")  # fmt: skip
+        if resume and out is None:
+            fail("--resume continues the curve of an --out file: give --out")
+        if resume and overwrite:
+            fail("--resume continues the curve in --out, --overwrite replaces it: give one")
         if out is not None:
-            check_output(out, overwrite=overwrite, resume=False)
+            # an interrupted curve's file (complete: false) is replaced when it resumes
+            check_output(out, overwrite=overwrite or resume, resume=False)
+            _clear_memo(memo_folder(out), resume, overwrite)
         _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
                         config_path, options, not no_type_change, cusps)  # fmt: skip
         return

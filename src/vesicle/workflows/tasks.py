@@ -21,6 +21,7 @@ place per kind: :func:`analysis` (orientation, modes, Jacobians), :func:`solve` 
 from __future__ import annotations
 
 import logging
+import shutil
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,12 +34,13 @@ from vesicle.bifurcation.checkpoint import Checkpoint
 from vesicle.bifurcation.critical import critical_lambda, critical_summary
 from vesicle.bifurcation.neutral import neutral_curve
 from vesicle.bifurcation.neutral_bq import neutral_curve_bq
-from vesicle.bifurcation.neutral_codim2 import neutral_curve_codim2
+from vesicle.bifurcation.neutral_codim2 import curve_memo, neutral_curve_codim2
 from vesicle.bifurcation.steady_codim2 import FORMS
 from vesicle.dynamics.integrators import RUN_DEFAULTS, STOP_KEYS, RunParameters
 from vesicle.dynamics.simulation import load_parameters, simulate
 from vesicle.geometry.diagnostics import diagnose, summarize
 from vesicle.io.files import read_run, stamped
+from vesicle.io.memo import MemoMismatch
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.settings import (
     JACOBIANS,
@@ -265,10 +267,7 @@ def _neutral_chi(options: dict) -> list[float]:
 
 def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     if options.get("continuation", "codim2") == "codim2":
-        keys = ("locate_type_change", "form", "cusps")
-        c = neutral_curve_codim2(physics, _neutral_chi(options), disc, analysis=analysis(options),
-                                 **{k: options[k] for k in keys if k in options})  # fmt: skip
-        return c.to_dict()  # written when complete (no checkpoint: see the module notes)
+        return _neutral_codim2(physics, disc, options, settings)
     keys = ("xtol", "type_tol", "locate_type_change")
     kwargs = {k: options[k] for k in keys if k in options}
     branch_settings = analysis(options)
@@ -290,6 +289,36 @@ def _neutral(physics: Physics, disc: Discretisation, options: dict, settings: di
     c = neutral_curve(physics, _neutral_chi(options), disc, analysis=branch_settings, known=known,
                       checkpoint=keep, **kwargs)  # fmt: skip
     return c.to_dict()  # a curve that stopped has "failed" entries: see run_point
+
+
+def _neutral_codim2(physics: Physics, disc: Discretisation, options: dict,
+                    settings: dict) -> dict:  # fmt: skip
+    """The codim2 curve, its evaluations kept in ``curves_dir`` as it goes (a curve cut short by
+    a crash, Ctrl-C or a lost worker replays them when tried again) and removed once it is
+    complete and returned to the store."""
+    keys = ("locate_type_change", "form", "cusps")
+    kwargs = {k: options[k] for k in keys if k in options}
+    memo = None
+    if settings.get("curves_dir"):
+        folder = Path(settings["curves_dir"]) / f"{physics.key}.codim2"
+        try:
+            memo = curve_memo(folder, physics, disc, analysis(options),
+                              kwargs.get("form", "spec"))  # fmt: skip
+        except MemoMismatch as err:
+            log.warning("neutral curve %s: %s: computed afresh", physics.key, err)
+            shutil.rmtree(folder, ignore_errors=True)
+            memo = curve_memo(folder, physics, disc, analysis(options),
+                              kwargs.get("form", "spec"))  # fmt: skip
+        if len(memo):
+            log.info("neutral curve %s: replaying %d evaluations kept in %s", physics.key,
+                     len(memo), folder)  # fmt: skip
+    c = neutral_curve_codim2(physics, _neutral_chi(options), disc, analysis=analysis(options),
+                             memo=memo, **kwargs)  # fmt: skip
+    out = c.to_dict()
+    if memo is not None:
+        out["replayed"] = memo.hits  # evaluations taken from an interrupted run's memo
+        memo.clear()
+    return out
 
 
 def _bq_values(options: dict) -> list[float]:
