@@ -414,7 +414,7 @@ def test_a_neutral_point_is_continued_in_two_parameters_by_default(monkeypatch):
     assert entry["status"] == "failed"
 
 
-def test_a_neutral_bq_point_gets_its_values_and_counts_its_failures(monkeypatch):
+def test_a_neutral_bq_point_gets_its_values_and_counts_its_failures(monkeypatch, tmp_path):
     """task = "neutral_bq": lambda_c(Bq) at the point's (v, chi), given the Bq values, the
     lambdas of the critical Bq and the analysis; a curve that stopped is a failed point."""
     import vesicle.workflows.tasks as sweep
@@ -432,9 +432,16 @@ def test_a_neutral_bq_point_gets_its_values_and_counts_its_failures(monkeypatch)
     entry = run_point("neutral_bq", {"v": 0.95, "chi": 6.0}, {"degree": 4, "grid": 12},
                       {"values": [0, 2, 5], "lam_at": "1", "modes": "general"}, {})
     assert seen == {"bq": [0.0, 2.0, 5.0], "chi": 6.0, "lam_at": [1.0], "form": "spec",
-                    "lam0": None, "analysis": StabilitySettings(modes="general")}  # fmt: skip
+                    "lam0": None, "analysis": StabilitySettings(modes="general"),
+                    "memo": None}  # fmt: skip
     assert entry["status"] == "failed" and "stop" in entry["error"]
     assert entry["result"]["plane"] == ["bq", "lam"]
+    # in a sweep (a curves folder) its evaluations are kept for a retry: the memo's identity
+    # holds chi and not the curve's parameters Bq and lambda
+    run_point("neutral_bq", {"v": 0.95, "chi": 6.0}, {"degree": 4, "grid": 12},
+              {"values": [0, 2, 5]}, {"curves_dir": str(tmp_path)})  # fmt: skip
+    held = seen["memo"].identity["physics"]
+    assert held["chi"] == 6.0 and "bq" not in held and "lam" not in held
 
 
 def test_a_neutral_point_cut_short_resumes_from_its_checkpoint(tmp_path, monkeypatch,

@@ -229,6 +229,7 @@ def neutral_curve_bq(
     max_points: int = 80,
     lam0: float | None = None,
     progress: Callable[[dict], None] | None = None,
+    memo=None,
 ) -> BqCurve:
     """``lambda_c(Bq)`` at ``physics``' ``v``, ``chi`` and flow, through the requested ``bq``
     (ascending; the first is the seed's), and the critical ``Bq`` at each of ``lam_at``
@@ -257,6 +258,10 @@ def neutral_curve_bq(
         Where the seed's bracketing search starts (default: its own start, at N = 4 first).
     progress : callable, optional
         Given a summary dict of each curve point and located point.
+    memo : EvaluationMemo, optional
+        Where the evaluations are kept and looked up, as for
+        :func:`~vesicle.bifurcation.neutral_codim2.neutral_curve_codim2` (``curve_memo(...,
+        free=("lam", "bq"))``): a curve run again with it replays them.
     """
     bqs = sorted(float(b) for b in bq)
     if not bqs or any(not (math.isfinite(b) and b >= 0) for b in bqs):
@@ -293,7 +298,7 @@ def neutral_curve_bq(
     failed: list[dict] = []
     try:
         return _trace(physics, disc, bqs, lams, analysis, form, (lo, hi), settings, max_points,
-                      lam0, say, under_way, curves, special, failed, t0)  # fmt: skip
+                      memo, lam0, say, under_way, curves, special, failed, t0)  # fmt: skip
     except KeyboardInterrupt as err:
         done = [{"kind": c.kind, "end": c.end, "points": [_point_dict(q) for q in c.points]}
                 for c in curves]  # fmt: skip
@@ -306,7 +311,8 @@ def neutral_curve_bq(
             "seconds": time.perf_counter() - t0}) from err  # fmt: skip
 
 
-def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points, lam0, say,
+def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points, memo,
+           lam0, say,
            under_way, curves, special, failed, t0) -> BqCurve:  # fmt: skip
     """The work of :func:`neutral_curve_bq` (its lists filled as it goes, for an
     interruption)."""
@@ -314,6 +320,7 @@ def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_po
     start = physics.replace(bq=bqs[0], lam=max(lo, 1.0))
     eq = SteadyEquations(start, disc, modes=analysis.modes, jacobian=analysis.jacobian,
                          form=form, plane=("bq", "lam"))  # fmt: skip
+    eq.memo = memo
     seed = _seed(eq, start, disc, analysis, settings, lam0)
     if not seed.converged:
         raise NewtonError(f"the critical point at Bq = {bqs[0]:g} did not converge "

@@ -969,15 +969,17 @@ def lam_box(lam_range) -> tuple[float, float]:
 
 
 def curve_memo(folder, physics: Physics, discretisation: Discretisation,
-               analysis: StabilitySettings | None = None, form: str = "spec") -> EvaluationMemo:
-    """The memo of a curve's evaluations in ``folder`` (``neutral_curve_codim2(memo=...)``),
-    for this ``v`` and flow (its ``chi`` and ``lambda`` are the curve's parameters, not part of
-    what it holds), discretisation, analysis and form.  Raises
+               analysis: StabilitySettings | None = None, form: str = "spec",
+               free: tuple[str, str] = ("lam", "chi")) -> EvaluationMemo:  # fmt: skip
+    """The memo of a curve's evaluations in ``folder`` (``neutral_curve_codim2(memo=...)``), for
+    this physics but the curve's two parameters ``free`` (``("lam", "bq")`` for
+    :func:`~vesicle.bifurcation.neutral_bq.neutral_curve_bq`), discretisation, analysis and
+    form.  Raises
     :class:`~vesicle.io.memo.MemoMismatch` where ``folder`` holds another curve's."""
     from vesicle import __version__
 
     analysis = analysis if analysis is not None else StabilitySettings()
-    held = {k: v for k, v in physics.to_dict().items() if k not in ("lam", "chi")}
+    held = {k: v for k, v in physics.to_dict().items() if k not in free}
     # the threads change no value (at most the last bits, then the lookups miss)
     disc = {k: v for k, v in discretisation.to_dict().items() if k != "workers"}
     return EvaluationMemo(folder, {"physics": held, "discretisation": disc,

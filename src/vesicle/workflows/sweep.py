@@ -221,7 +221,7 @@ def read_sweep_config(path: str | os.PathLike) -> SweepConfig:
             RunParameters(points[0], disc, settings["solver"], **settings["run"])
             # the run files of the points, beside the store (vesicle plot / analyze read them)
             settings["runs_dir"] = str(out_path.parent / f"{out_path.stem}_runs")
-        if task == "neutral":  # each curve's checkpoint (points and states), beside the store
+        if task in ("neutral", "neutral_bq"):  # each curve's checkpoint, beside the store
             settings["curves_dir"] = str(out_path.parent / f"{out_path.stem}_curves")
         check_options(task, options, grid, points)
     except (ValueError, TypeError) as err:

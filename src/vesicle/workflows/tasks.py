@@ -298,25 +298,36 @@ def _neutral_codim2(physics: Physics, disc: Discretisation, options: dict,
     complete and returned to the store."""
     keys = ("locate_type_change", "form", "cusps")
     kwargs = {k: options[k] for k in keys if k in options}
-    memo = None
-    if settings.get("curves_dir"):
-        folder = Path(settings["curves_dir"]) / f"{physics.key}.codim2"
-        try:
-            memo = curve_memo(folder, physics, disc, analysis(options),
-                              kwargs.get("form", "spec"))  # fmt: skip
-        except MemoMismatch as err:
-            log.warning("neutral curve %s: %s: computed afresh", physics.key, err)
-            shutil.rmtree(folder, ignore_errors=True)
-            memo = curve_memo(folder, physics, disc, analysis(options),
-                              kwargs.get("form", "spec"))  # fmt: skip
-        if len(memo):
-            log.info("neutral curve %s: replaying %d evaluations kept in %s", physics.key,
-                     len(memo), folder)  # fmt: skip
+    memo = _curve_memo(physics, disc, options, settings, kwargs.get("form", "spec"),
+                       ("lam", "chi"))  # fmt: skip
     c = neutral_curve_codim2(physics, _neutral_chi(options), disc, analysis=analysis(options),
                              memo=memo, **kwargs)  # fmt: skip
-    out = c.to_dict()
+    return _cleared(c.to_dict(), memo)
+
+
+def _curve_memo(physics, disc, options, settings, form, free):
+    """The memo of a sweep point's curve in ``curves_dir`` (None without one); one of another
+    identity is removed (computed afresh)."""
+    if not settings.get("curves_dir"):
+        return None
+    folder = Path(settings["curves_dir"]) / f"{physics.key}.codim2"
+    try:
+        memo = curve_memo(folder, physics, disc, analysis(options), form, free)
+    except MemoMismatch as err:
+        log.warning("curve %s: %s: computed afresh", physics.key, err)
+        shutil.rmtree(folder, ignore_errors=True)
+        memo = curve_memo(folder, physics, disc, analysis(options), form, free)
+    if len(memo):
+        log.info("curve %s: replaying %d evaluations kept in %s", physics.key, len(memo),
+                 folder)  # fmt: skip
+    return memo
+
+
+def _cleared(out: dict, memo) -> dict:
+    """A complete curve's result, with how many evaluations it read back (``replayed``); its
+    memo removed (the store keeps the result)."""
     if memo is not None:
-        out["replayed"] = memo.hits  # evaluations taken from an interrupted run's memo
+        out["replayed"] = memo.hits
         memo.clear()
     return out
 
@@ -340,10 +351,12 @@ def _lam_at(options: dict) -> list[float]:
 def _neutral_bq(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
     """lambda_c(Bq) at the point's v and chi by continuation in (Bq, lambda), and the critical
     Bq at ``lam_at`` (:func:`vesicle.bifurcation.neutral_bq.neutral_curve_bq`)."""
+    form = option_value(options, "form")
+    memo = _curve_memo(physics, disc, options, settings, form, ("lam", "bq"))
     c = neutral_curve_bq(physics, _bq_values(options), disc, lam_at=_lam_at(options),
-                         analysis=analysis(options), form=option_value(options, "form"),
-                         lam0=options.get("lam0"))  # fmt: skip
-    return c.to_dict()
+                         analysis=analysis(options), form=form, lam0=options.get("lam0"),
+                         memo=memo)  # fmt: skip
+    return _cleared(c.to_dict(), memo)
 
 
 def _values(spec, points: int, name: str) -> list[float]:
