@@ -477,3 +477,33 @@ def test_a_cached_run_of_other_settings_is_stale(tmp_path):
     assert not _same_run(tmp_path / "run.h5", params.replace(solver="steady"))
     (tmp_path / "other.h5").write_bytes(b"not a run")
     assert not _same_run(tmp_path / "other.h5", params)
+
+
+def test_the_in_plane_runs_go_to_the_workers_with_the_tilted_ones(tmp_path, monkeypatch):
+    """fig23's first map holds the in-plane runs (first) and every tilted start, so that no
+    worker waits for the tilted starts to end before the snapshot starts' sources begin; the
+    snapshot starts are the second map.  Run names carry N and the grid (the full report's
+    two resolutions never share a file)."""
+    from vesicle.workflows import paper
+
+    maps = []
+
+    class Stop(Exception):
+        pass
+
+    def record(options, fn, calls):
+        maps.append((fn, calls))
+        raise Stop
+
+    monkeypatch.setattr(paper, "_map", record)
+    with pytest.raises(Stop):
+        paper._fig23(tmp_path, False, {})
+    ((fn, calls),) = maps
+    kinds = [c[0] for c in calls]
+    plan = paper._fig23_plan(tmp_path, False, {})
+    assert fn is paper._fig23_run and kinds == ["in-plane"] * len(plan.in_plane) + ["tilted"] * (
+        len(plan.tilted_calls) + len(plan.tu_calls))
+    assert len(plan.in_plane) == 2 * len(paper.SNAPSHOT) and len(plan.snap_calls) == 2 * len(
+        paper.SNAPSHOT) * len(paper.PHASES)
+    names = [Path(c[0]).name for c in plan.tilted_calls + plan.in_plane + plan.snap_calls]
+    assert len(set(names)) == len(names) and any("_N6_16" in n for n in names)

@@ -899,19 +899,35 @@ def _tilted_run(path: str, params) -> dict:
 TILTED_CHECK = (16, 6)
 
 
-def _fig23(folder: Path, quick: bool, options: dict) -> dict:
-    """Tilted starts (SPEC §13): each run to ``t_end`` (resumed from its file when cut short),
-    the orbit of its long axis classified (:func:`vesicle.geometry.diagnostics.classify_orbit`)
-    over the last half, its axes drawn on the unit sphere and seen along the vorticity axis.
+@dataclass(frozen=True)
+class _TiltedPlan:
+    """What :func:`_fig23` runs: each call's (path, parameters[, source, phase]) and the keys
+    its rows are made from (:func:`_fig23_plan`)."""
 
-    The full report runs every start at N = 8 (:data:`RUNS_FULL`) and again at N = 6
-    (:data:`TILTED_CHECK`), and says per start whether the two classes agree;
-    ``options["resolutions"]`` ((grid, degree), ...) chooses others (the first is the item's
-    own, which alone runs the tumbling-against-tilt cases)."""
+    resolutions: list
+    grid: int
+    degree: int
+    t_end: float
+    save_every: float
+    orbits: int
+    cases: list
+    tilted: list  # (lam, tilt, t_end, grid, degree, name)
+    tilted_calls: list
+    tu_cases: list
+    tu_names: list
+    tu_calls: list
+    snap_cases: list
+    phases: tuple
+    in_plane: list
+    snap_keys: list  # (lam, tilt, phase, grid, degree, name)
+    snap_calls: list
+
+
+def _fig23_plan(folder: Path, quick: bool, options: dict) -> _TiltedPlan:
+    """The runs of :func:`_fig23` (its options documented there), named by their parameters:
+    a file of the same name holds the same run, whichever call computed it."""
     from vesicle.dynamics.integrators import RunParameters
-    from vesicle.io.files import read_run
     from vesicle.model.parameters import Discretisation, Physics
-    from vesicle.plots.runs import plot_out_of_plane
 
     grid, degree = _run_resolution(quick)
     resolutions = [tuple(int(x) for x in r) for r in
@@ -940,21 +956,20 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     # a resolution never reuses another's files: N and the grid are in every file's name
     tilted = [(lam, tilt, end, g, n, f"lam{lam:g}_tilt{tilt:g}_N{n}_{g}")
               for g, n in resolutions for lam, tilt, end in cases]  # fmt: skip
-    calls = [(str(folder / f"{name}.h5"),
-              run_parameters(lam, 4.0, g, n, t_end=end, save_every=save_every, tilt=tilt,
-                             **stops))
-             for lam, tilt, end, g, n, name in tilted]  # fmt: skip
+    tilted_calls = [(str(folder / f"{name}.h5"),
+                     run_parameters(lam, 4.0, g, n, t_end=end, save_every=save_every,
+                                    tilt=tilt, **stops))
+                    for lam, tilt, end, g, n, name in tilted]  # fmt: skip
     tu_cases = options.get("tilted_tu", TILTED_TU_QUICK if quick else TILTED_TU)
     tu_names = [f"tu_lam{lam:g}_chi{chi:g}_tilt{tilt:g}_N{degree}_{grid}"
                 for lam, chi, tilt in tu_cases]  # fmt: skip
-    calls += [(str(folder / f"{name}.h5"),
-               # the saves and the largest step scale with the flow's time 1 / chi (the quick
-               # report has no such case): at chi = 0.2, 0.5 each, not 0.25 fixed
-               run_parameters(lam, chi, grid, degree, tilt=tilt, save_every=0.1 / chi,
-                              dt_max=0.25 if quick else 0.1 / chi, steady_tol=0.0,
-                              t_end=float(options.get("tumbling_t_end", 120.0 / chi))))
-              for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
-    summaries = _map(options, _tilted_run, calls)
+    tu_calls = [(str(folder / f"{name}.h5"),
+                 # the saves and the largest step scale with the flow's time 1 / chi (the quick
+                 # report has no such case): at chi = 0.2, 0.5 each, not 0.25 fixed
+                 run_parameters(lam, chi, grid, degree, tilt=tilt, save_every=0.1 / chi,
+                                dt_max=0.25 if quick else 0.1 / chi, steady_tol=0.0,
+                                t_end=float(options.get("tumbling_t_end", 120.0 / chi))))
+                for name, (lam, chi, tilt) in zip(tu_names, tu_cases, strict=True)]  # fmt: skip
     # SPEC §13's starts: shapes of the in-plane run rotated out of the plane, at several phases
     snap_cases = options.get("snapshot", SNAPSHOT_QUICK if quick else SNAPSHOT)
     phases = tuple(options.get("phases", PHASES_QUICK if quick else PHASES))
@@ -962,7 +977,6 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                  run_parameters(lam, 4.0, g, n, periods=3, save_every=save_every,
                                 t_end=float(options.get("snapshot_t", SNAPSHOT_T))))
                 for g, n in resolutions for lam, _ in snap_cases]  # fmt: skip
-    _map(options, _inplane_run, in_plane)
     snap_calls, snap_keys = [], []
     sources = iter(in_plane)
     for g, n in resolutions:
@@ -975,7 +989,42 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
                                                   save_every=save_every, **stops),
                                    source, phase))  # fmt: skip
                 snap_keys.append((lam, tilt, phase, g, n, name))
-    snap_summaries = _map(options, _snapshot_run, snap_calls)
+    return _TiltedPlan(resolutions, grid, degree, t_end, save_every, orbits, cases, tilted,
+                       tilted_calls, tu_cases, tu_names, tu_calls, snap_cases, phases, in_plane,
+                       snap_keys, snap_calls)  # fmt: skip
+
+
+def _fig23_run(kind: str, *args) -> dict:
+    """One run of :func:`_fig23`: ``"tilted"`` (:func:`_tilted_run`) or ``"in-plane"``
+    (:func:`_inplane_run`), so that both go to the workers in one map."""
+    return (_inplane_run if kind == "in-plane" else _tilted_run)(*args)
+
+
+def _fig23(folder: Path, quick: bool, options: dict) -> dict:
+    """Tilted starts (SPEC §13): each run to ``t_end`` (resumed from its file when cut short),
+    the orbit of its long axis classified (:func:`vesicle.geometry.diagnostics.classify_orbit`)
+    over the last half, its axes drawn on the unit sphere and seen along the vorticity axis.
+
+    The full report runs every start at N = 8 (:data:`RUNS_FULL`) and again at N = 6
+    (:data:`TILTED_CHECK`), and says per start whether the two classes agree;
+    ``options["resolutions"]`` ((grid, degree), ...) chooses others (the first is the item's
+    own, which alone runs the tumbling-against-tilt cases).  The in-plane runs that the
+    snapshot starts come from go to the workers first, with the tilted starts, and the
+    snapshot starts after them (:func:`_fig23_plan`)."""
+    from vesicle.io.files import read_run
+    from vesicle.plots.runs import plot_out_of_plane
+
+    plan = _fig23_plan(folder, quick, options)
+    grid, degree, orbits = plan.grid, plan.degree, plan.orbits
+    tilted, tu_names, tu_cases = plan.tilted, plan.tu_names, plan.tu_cases
+    snap_keys, snap_cases, phases = plan.snap_keys, plan.snap_cases, plan.phases
+    resolutions, save_every, t_end, cases = (plan.resolutions, plan.save_every, plan.t_end,
+                                             plan.cases)  # fmt: skip
+    first = [("in-plane", *c) for c in plan.in_plane]
+    done = _map(options, _fig23_run, first + [("tilted", *c) for c in
+                                              plan.tilted_calls + plan.tu_calls])  # fmt: skip
+    summaries = done[len(first):]
+    snap_summaries = _map(options, _snapshot_run, plan.snap_calls)
     rows, figures = [], []
 
     def row(lam, tilt, g, n, s, name, start=None, phase=None):
