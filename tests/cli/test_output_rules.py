@@ -238,3 +238,26 @@ def test_an_interrupted_codim2_curve_resumes_from_its_kept_evaluations(tmp_path,
     assert r.exit_code == 0, r.output
     assert seen == [0, 1] and "replaying the 1 evaluations" in r.output
     assert json.loads(out.read_text())["replayed"] == 2 and not (tmp_path / "n.codim2").exists()
+
+
+def test_a_codim2_resume_with_nothing_kept_is_refused_or_said(tmp_path, monkeypatch):
+    """--resume of a codim2 curve whose --out holds a complete curve and no evaluations:
+    refused before any work (nothing to resume); with no file at all it says so and computes
+    from the start; an --out ending in .codim2 (the memo's folder name) is refused."""
+    from vesicle.bifurcation.neutral import NeutralCurve
+
+    calls = []
+
+    def curve(physics, chis, disc, memo=None, **kwargs):
+        calls.append(len(memo))
+        return NeutralCurve(physics, disc, [], None, [], 0.0, [], method="codim2")
+
+    monkeypatch.setattr(cli_steady, "neutral_curve_codim2", curve)
+    out = tmp_path / "n.json"
+    args = ("neutral", "--chi", "1,2", "--degree", "2", "--grid", "8", "--out", str(out))
+    r = run(*args, "--resume")
+    assert r.exit_code == 0 and "nothing to resume" in r.output and calls == [0]
+    r = run(*args, "--resume")
+    assert r.exit_code != 0 and "holds a complete curve" in r.output and calls == [0]
+    r = run("neutral", "--chi", "1", "--out", str(tmp_path / "n.codim2"))
+    assert r.exit_code != 0 and ".codim2" in r.output and calls == [0]

@@ -480,9 +480,9 @@ def test_a_cached_run_of_other_settings_is_stale(tmp_path):
 
 
 def test_the_in_plane_runs_go_to_the_workers_with_the_tilted_ones(tmp_path, monkeypatch):
-    """fig23's first map holds the in-plane runs (first) and every tilted start, so that no
-    worker waits for the tilted starts to end before the snapshot starts' sources begin; the
-    snapshot starts are the second map.  Run names carry N and the grid (the full report's
+    """fig23's runs go to the workers at once: the in-plane runs (first) and every tilted
+    start, and each snapshot start after its own in-plane run (the one whose file it starts
+    from), not after every tilted start.  Run names carry N and the grid (the full report's
     two resolutions never share a file)."""
     from vesicle.workflows import paper
 
@@ -491,19 +491,63 @@ def test_the_in_plane_runs_go_to_the_workers_with_the_tilted_ones(tmp_path, monk
     class Stop(Exception):
         pass
 
-    def record(options, fn, calls):
-        maps.append((fn, calls))
+    def record(options, fn, calls, then, then_calls, parents):
+        maps.append((fn, calls, then, then_calls, parents))
         raise Stop
 
-    monkeypatch.setattr(paper, "_map", record)
+    monkeypatch.setattr(paper, "_map_then", record)
     with pytest.raises(Stop):
         paper._fig23(tmp_path, False, {})
-    ((fn, calls),) = maps
+    ((fn, calls, then, then_calls, parents),) = maps
     kinds = [c[0] for c in calls]
     plan = paper._fig23_plan(tmp_path, False, {})
     assert fn is paper._fig23_run and kinds == ["in-plane"] * len(plan.in_plane) + ["tilted"] * (
         len(plan.tilted_calls) + len(plan.tu_calls))
+    assert then is paper._snapshot_run and then_calls == plan.snap_calls
+    assert all(calls[i][1] == c[2] for i, c in zip(parents, then_calls, strict=True))
     assert len(plan.in_plane) == 2 * len(paper.SNAPSHOT) and len(plan.snap_calls) == 2 * len(
         paper.SNAPSHOT) * len(paper.PHASES)
     names = [Path(c[0]).name for c in plan.tilted_calls + plan.in_plane + plan.snap_calls]
     assert len(set(names)) == len(names) and any("_N6_16" in n for n in names)
+
+
+_EVENTS: list = []  # (what, value, time) of _map_then's calls below (one process, threads)
+
+
+def _first_call(x):
+    import time
+
+    time.sleep(0.05 * x)
+    _EVENTS.append(("ended", x, time.monotonic()))
+    return x * 10
+
+
+def _second_call(parent, y):
+    import time
+
+    _EVENTS.append(("started", parent, time.monotonic()))
+    return y + parent
+
+
+def test_map_then_runs_each_second_call_after_its_parent_on_a_scheduler():
+    """_map_then on a Dask scheduler (a LocalCluster of threads in this process): each second
+    call starts after its parent has ended, and both lists come back in order; without a
+    scheduler the same results one after another."""
+    from distributed import LocalCluster
+
+    from vesicle.workflows import paper
+
+    calls, then_calls, parents = [(1,), (2,), (3,)], [(2, 5), (3, 7), (1, 1)], [1, 2, 0]
+    expected = ([10, 20, 30], [7, 10, 2])
+    assert paper._map_then({}, _first_call, calls, _second_call, then_calls,
+                           parents) == expected  # fmt: skip
+    _EVENTS.clear()
+    with LocalCluster(n_workers=1, threads_per_worker=3, processes=False,
+                      dashboard_address=None) as cluster:  # fmt: skip
+        got = paper._map_then({"scheduler": cluster.scheduler_address}, _first_call, calls,
+                              _second_call, then_calls, parents)  # fmt: skip
+    assert got == expected
+    ended = {x: t for what, x, t in _EVENTS if what == "ended"}
+    starts = [(x, t) for what, x, t in _EVENTS if what == "started"]
+    assert len(ended) == 3 and len(starts) == 3
+    assert all(t >= ended[x] for x, t in starts)  # x: the second call's parent's argument

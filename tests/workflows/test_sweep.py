@@ -568,8 +568,8 @@ def test_a_stability_sweep_on_the_vorticity_branch(tmp_path):
 
 def test_a_codim2_curve_keeps_its_evaluations_until_it_is_complete(monkeypatch, tmp_path):
     """A sweep's codim2 curve gets a memo in its curves folder (vesicle.io.memo): kept when
-    the curve is cut short (the next try replays it, and says so in ``replayed``), removed
-    once the curve is complete."""
+    the curve is cut short or stops with failures (the next try replays it, and says in
+    ``replayed`` how many it read back), removed once the curve is complete."""
     import numpy as np
 
     import vesicle.workflows.tasks as sweep
@@ -583,16 +583,20 @@ def test_a_codim2_curve_keeps_its_evaluations_until_it_is_complete(monkeypatch, 
         memo.cached("residual", lambda: np.ones(3), np.zeros(2))
         if len(seen) == 1:
             raise KeyboardInterrupt
-        return NeutralCurve(physics, disc, [], None, [], 0.0, [])
+        failed = [{"chi": 1.0, "error": "no TT"}] if len(seen) == 2 else []
+        return NeutralCurve(physics, disc, [], None, [], 0.0, failed)
 
     monkeypatch.setattr(sweep, "neutral_curve_codim2", codim2)
     settings = {"curves_dir": str(folder)}
+    args = ("neutral", {"v": 0.95}, {"degree": 4, "grid": 12}, {"chi": [1.0]}, settings)
     with pytest.raises(KeyboardInterrupt):
-        run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12}, {"chi": [1.0]}, settings)
+        run_point(*args)
     (memo_folder, before), = seen
     assert memo_folder.parent == folder and memo_folder.name.endswith(".codim2") and before == 0
     assert memo_folder.exists()
-    entry = run_point("neutral", {"v": 0.95}, {"degree": 4, "grid": 12}, {"chi": [1.0]},
-                      settings)  # fmt: skip
+    entry = run_point(*args)  # stopped with a failure: kept for the retry
     assert seen[1] == (memo_folder, 1) and entry["result"]["replayed"] == 1
+    assert entry["status"] == "failed" and memo_folder.exists()
+    entry = run_point(*args)
+    assert seen[2] == (memo_folder, 1) and entry["status"] == "done"
     assert not memo_folder.exists()

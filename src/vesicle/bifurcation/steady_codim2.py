@@ -256,7 +256,7 @@ class SteadyEquations(codim2.Problem):
             return np.full((x.size, x.size), np.nan)
         try:
             return self._jacobian(x, p)
-        except (ShapeError, SolverError) as err:
+        except (ShapeError, SolverError) as err:  # (kept by the memo as NaN: replayed so)
             log.debug("Jacobian at p = %s: %s", p, err)
             return np.full((x.size, x.size), np.nan)
 
@@ -268,11 +268,21 @@ class SteadyEquations(codim2.Problem):
             self._last_jacobian = (key, J)
             return J
         if self.memo is not None:
-            J = self.memo.cached("jacobian", lambda: self._computed_jacobian(x, p),
-                                 *_inputs(x, p))  # fmt: skip
+            J = self.memo.cached("jacobian", lambda: self._failed_as_nan(x, p), *_inputs(x, p))
+            if not np.all(np.isfinite(J)):  # a failure, replayed
+                raise SolverError("the Jacobian failed here when it was computed (replayed)")
             self._keep_jacobian(key, J)
             return J.copy()
         return self._computed_jacobian(x, p)
+
+    def _failed_as_nan(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """The Jacobian, or NaN where it fails: what the memo keeps, so that a resumed curve
+        meets the same failure at the same point (the solver's state then may differ)."""
+        try:
+            return self._computed_jacobian(x, p)
+        except (ShapeError, SolverError) as err:
+            log.debug("Jacobian at p = %s: %s", p, err)
+            return np.full((x.size, x.size), np.nan)
 
     def _computed_jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         key = self._point_key(x, p)
@@ -390,17 +400,30 @@ class SteadyEquations(codim2.Problem):
         if self._outside(p):
             raise ValueError(f"parameters outside the physics: {self.plane} = {tuple(p)}")
         if self.memo is not None:
-            return self.memo.cached("times", lambda: self._computed_times(x, p, Q),
-                                    *_inputs(x, p), Q)  # fmt: skip
+            out = self.memo.cached("times", lambda: self._times_or_nan(x, p, Q),
+                                   *_inputs(x, p), np.asarray(Q, float))  # fmt: skip
+            if out.size and np.all(np.isnan(out)):  # a failure, replayed
+                raise SolverError("the Jacobian action failed here when it was computed "
+                                  "(replayed)")  # fmt: skip
+            return out
         return self._computed_times(x, p, Q)
+
+    def _times_or_nan(self, x, p, Q) -> np.ndarray:
+        """:meth:`_computed_times`, or NaN where it fails (what the memo keeps)."""
+        try:
+            return self._computed_times(x, p, Q)
+        except (ShapeError, SolverError, ValueError) as err:
+            log.debug("Jacobian action at p = %s: %s", p, err)
+            return np.full((x.size, Q.shape[1]), np.nan)
 
     def _computed_times(self, x: np.ndarray, p: np.ndarray, Q: np.ndarray) -> np.ndarray:
         P = self.problem_at(p)
-        if self.memo is not None and P.kept.system is None and P.kept.preconditioner is None:
-            # the Jacobian before it was looked up (a resumed curve): its factorised system
-            # preconditions the solves, as it did in the run that kept the lookups
-            self._computed_jacobian(np.asarray(x, float), np.asarray(p, float))
         m = x.size - 2
+        if (self.memo is not None and P.jacobian_method == "linearised"
+                and P.kept.system is None and P.kept.preconditioner is None):  # fmt: skip
+            # the Jacobian was looked up (a resumed curve), so no factorised system is kept:
+            # this shape's, to precondition the solves (as the Jacobian's was, when computed)
+            P.factorise(P.shape(np.asarray(x[:m], float)))
         a, mu = x[:m], x[m:]
         g = P.gradients(P.shape(a))
         top = P.jacobian_action(a, Q[:m]) - g.T @ Q[m:]

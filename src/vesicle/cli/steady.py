@@ -397,6 +397,23 @@ def memo_folder(out: str | os.PathLike) -> Path:
     return out.with_suffix(".codim2") if out.suffix else out.with_name(out.name + ".codim2")
 
 
+def _check_codim2_resume(out: str) -> None:
+    """--resume of a codim2 curve: refused where ``out`` holds a complete curve (nothing to
+    resume); said where there is nothing kept (the curve is computed from the start)."""
+    folder = memo_folder(out)
+    if folder.exists():
+        return
+    try:
+        data = json.loads(Path(out).read_text()) if Path(out).exists() else None
+    except (OSError, ValueError):
+        data = None
+    if data is not None and data.get("points") is not None and not data.get("interrupted"):
+        fail(f"--resume: {out} holds a complete curve and no evaluations are kept "
+             f"({folder}): nothing to resume (--overwrite computes it again)")  # fmt: skip
+    click.echo(f"nothing to resume ({folder} does not exist): computing the curve from the "
+               "start", err=True)  # fmt: skip
+
+
 def _clear_memo(folder: Path, resume: bool, overwrite: bool) -> None:
     """A codim2 curve's evaluations: replayed with --resume, removed with --overwrite, refused
     otherwise (checked before any work)."""
@@ -466,8 +483,10 @@ def _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
         result["replayed"] = memo.hits
     if curve.failed:  # what was found is written; the command still fails
         _emit_json(result, out, as_json)
+        kept = ("" if memo is None else
+                f" (its evaluations stay in {memo.folder}: --resume replays them)")
         fail("; ".join(f"no point at chi = {f['chi']:.4g} ({f['error']})" if f["chi"] is not None
-                       else f["error"] for f in curve.failed))  # fmt: skip
+                       else f["error"] for f in curve.failed) + kept)  # fmt: skip
     written = _emit_json(result, out, as_json)
     if memo is not None:  # the curve is in --out: its evaluations are no longer needed
         memo.clear()
@@ -564,6 +583,11 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, cusps
         if resume and overwrite:
             fail("--resume continues the curve in --out, --overwrite replaces it: give one")
         if out is not None:
+            if Path(out).suffix == ".codim2":
+                fail("--out: a curve's file cannot end in .codim2 (the name of the folder "
+                     "of its evaluations)")  # fmt: skip
+            if resume:
+                _check_codim2_resume(out)
             # an interrupted curve's file (complete: false) is replaced when it resumes
             check_output(out, overwrite=overwrite or resume, resume=False)
             _clear_memo(memo_folder(out), resume, overwrite)

@@ -24,6 +24,7 @@ import json
 import logging
 import os
 import shutil
+import uuid
 from pathlib import Path
 
 import numpy as np
@@ -93,7 +94,7 @@ class EvaluationMemo:
         path = self._path(key)
         try:
             value = np.load(path, allow_pickle=False)
-        except (OSError, ValueError):
+        except (OSError, ValueError, EOFError):  # none, or unreadable (computed again)
             self.misses += 1
             return None
         self.hits += 1
@@ -104,7 +105,8 @@ class EvaluationMemo:
         if not self.saving:
             return
         path = self._path(key)
-        tmp = path.with_name(path.name + ".tmp")
+        # the writer's own temporary name: a worker declared lost may still be writing
+        tmp = path.with_name(f"{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
         try:
             path.parent.mkdir(exist_ok=True)
             with open(tmp, "wb") as f:

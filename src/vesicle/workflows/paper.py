@@ -113,6 +113,30 @@ def _map(options: dict, fn: Callable, calls: list[tuple]) -> list:
         return client.gather(futures)
 
 
+def _after(_, fn: Callable, *args):
+    """``fn(*args)`` once the call whose result is the first argument has ended."""
+    return fn(*args)
+
+
+def _map_then(options: dict, fn: Callable, calls: list[tuple], then: Callable,
+              then_calls: list[tuple], parents: list[int]) -> tuple[list, list]:  # fmt: skip
+    """:func:`_map` of ``calls`` and of ``then_calls``, each of the latter once the call
+    ``calls[parents[j]]`` has ended (on a scheduler: as soon as it has, beside the other
+    calls, not after all of them).  Both lists of results."""
+    scheduler = options.get("scheduler")
+    if scheduler is None or not (calls or then_calls):
+        first = [fn(*args) for args in calls]
+        return first, [then(*args) for args in then_calls]
+    from distributed import Client
+
+    priority = options.get("priority", 0)
+    with Client(scheduler) as client:
+        futures = [client.submit(fn, *args, pure=False, priority=priority) for args in calls]
+        after = [client.submit(_after, futures[i], then, *args, pure=False, priority=priority)
+                 for i, args in zip(parents, then_calls, strict=True)]  # fmt: skip
+        return client.gather(futures), client.gather(after)
+
+
 # ------------------------------------------------------------- the comparisons
 def _compare(quantity: str, paper: float, ours: float | None, *, located: bool | None = None,
              note: str = "", compared: bool | None = None, bound: bool = False,
@@ -1009,8 +1033,9 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     (:data:`TILTED_CHECK`), and says per start whether the two classes agree;
     ``options["resolutions"]`` ((grid, degree), ...) chooses others (the first is the item's
     own, which alone runs the tumbling-against-tilt cases).  The in-plane runs that the
-    snapshot starts come from go to the workers first, with the tilted starts, and the
-    snapshot starts after them (:func:`_fig23_plan`)."""
+    snapshot starts come from go to the workers first, with the tilted starts, and each
+    snapshot start as soon as its in-plane run has ended (:func:`_fig23_plan`,
+    :func:`_map_then`)."""
     from vesicle.io.files import read_run
     from vesicle.plots.runs import plot_out_of_plane
 
@@ -1021,10 +1046,11 @@ def _fig23(folder: Path, quick: bool, options: dict) -> dict:
     resolutions, save_every, t_end, cases = (plan.resolutions, plan.save_every, plan.t_end,
                                              plan.cases)  # fmt: skip
     first = [("in-plane", *c) for c in plan.in_plane]
-    done = _map(options, _fig23_run, first + [("tilted", *c) for c in
-                                              plan.tilted_calls + plan.tu_calls])  # fmt: skip
+    sources = [c[0] for c in plan.in_plane]
+    done, snap_summaries = _map_then(
+        options, _fig23_run, first + [("tilted", *c) for c in plan.tilted_calls + plan.tu_calls],
+        _snapshot_run, plan.snap_calls, [sources.index(c[2]) for c in plan.snap_calls])
     summaries = done[len(first):]
-    snap_summaries = _map(options, _snapshot_run, plan.snap_calls)
     rows, figures = [], []
 
     def row(lam, tilt, g, n, s, name, start=None, phase=None):

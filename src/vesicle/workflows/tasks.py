@@ -324,11 +324,13 @@ def _curve_memo(physics, disc, options, settings, form, free):
 
 
 def _cleared(out: dict, memo) -> dict:
-    """A complete curve's result, with how many evaluations it read back (``replayed``); its
-    memo removed (the store keeps the result)."""
+    """A curve's result, with how many evaluations it read back from its memo instead of
+    computing them (``replayed``).  The memo is removed once the curve is complete (the store
+    keeps the result); a curve with failures keeps it, so that a retry replays."""
     if memo is not None:
         out["replayed"] = memo.hits
-        memo.clear()
+        if _neutral_incomplete(out) is None:
+            memo.clear()
     return out
 
 
