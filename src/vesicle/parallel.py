@@ -28,6 +28,7 @@ __all__ = [
     "ONE_THREAD_GRID",
     "close_cluster",
     "executor",
+    "forward_worker_logs",
     "grid_threads",
     "local_cluster",
     "threads_from_environment",
@@ -97,6 +98,30 @@ def close_cluster(cluster) -> None:
         nanny.setLevel(level)
 
 
+def _log_level(name: str, level: int) -> None:
+    """On a worker: ``name``'s logger at ``level`` (its records then reach the forwarding)."""
+    logging.getLogger(name).setLevel(level)
+
+
+def forward_worker_logs(client, name: str = "vesicle") -> bool:
+    """With ``name``'s logger at INFO or below in this process (``vesicle --verbose``), the
+    workers' records of it at that level are sent here and logged as this process's are: the
+    progress of a neutral curve or a run on a worker (each curve point, each search step) shows
+    on the command's stderr.  At the default level nothing changes (a worker's warnings reach
+    its stderr, which a LocalCluster's workers share with the command).  Workers that join
+    later keep their default level.  Whether it forwards."""
+    level = logging.getLogger(name).getEffectiveLevel()
+    if level > logging.INFO:
+        return False
+    try:
+        client.run(_log_level, name, level)
+        client.forward_logging(name, level=level)
+    except Exception as err:  # an old distributed, or a worker gone: the work goes on
+        log.info("the workers' log records stay on the workers (%s)", err)
+        return False
+    return True
+
+
 @contextmanager
 def executor(workers: int = 1, scheduler: str | None = None) -> Iterator[Executor | None]:
     """An executor for ``workers`` local processes or a Dask ``scheduler`` (see module doc)."""
@@ -117,10 +142,12 @@ def executor(workers: int = 1, scheduler: str | None = None) -> Iterator[Executo
         log.info("started a Dask LocalCluster of %d workers", workers)
         try:
             with Client(cluster) as client:
+                forward_worker_logs(client)
                 yield client.get_executor()
         finally:
             close_cluster(cluster)
         return
     with Client(scheduler) as client:
         log.info("connected to the Dask scheduler at %s", scheduler)
+        forward_worker_logs(client)
         yield client.get_executor()

@@ -600,3 +600,48 @@ def test_a_codim2_curve_keeps_its_evaluations_until_it_is_complete(monkeypatch, 
     entry = run_point(*args)
     assert seen[2] == (memo_folder, 1) and entry["status"] == "done"
     assert not memo_folder.exists()
+
+
+def _log_on_worker(message: str) -> int:
+    import logging
+    import os
+
+    logging.getLogger("vesicle.test_forwarding").info(message)
+    return os.getpid()
+
+
+def test_with_verbose_the_workers_progress_reaches_the_command(caplog):
+    """vesicle --verbose: a worker process's INFO records of the vesicle logger are forwarded
+    to the command's (a curve's progress on a worker shows); at the default level nothing is
+    set up.  One real worker process."""
+    import logging
+    import os
+    import time
+
+    from distributed import Client
+
+    from vesicle.parallel import close_cluster, forward_worker_logs, local_cluster
+
+    cluster = local_cluster(1)
+    try:
+        with Client(cluster) as client:
+            logger = logging.getLogger("vesicle")
+            old = logger.level
+            try:
+                logger.setLevel(logging.WARNING)
+                assert not forward_worker_logs(client)
+                logger.setLevel(logging.INFO)
+                with caplog.at_level(logging.INFO, logger="vesicle"):
+                    assert forward_worker_logs(client)
+                    pid = client.submit(_log_on_worker, "a point of the curve").result()
+                    for _ in range(50):  # the record travels on its own message
+                        if any("a point of the curve" in r.getMessage() for r in caplog.records):
+                            break
+                        time.sleep(0.1)
+            finally:
+                logger.setLevel(old)
+    finally:
+        close_cluster(cluster)
+    assert pid != os.getpid()
+    assert any(r.name == "vesicle.test_forwarding" and "a point of the curve" in r.getMessage()
+               for r in caplog.records)  # fmt: skip

@@ -42,6 +42,7 @@ from vesicle.model.published import (  # the paper's stated values: one home
     PAPER_TYPE_CHANGE,
     TABLE1_PAPER,
 )
+from vesicle.parallel import forward_worker_logs
 from vesicle.workflows.config import toml_text
 
 __all__ = ["ITEMS", "Item", "build_report", "write_index"]
@@ -108,6 +109,7 @@ def _map(options: dict, fn: Callable, calls: list[tuple]) -> list:
     from distributed import Client
 
     with Client(scheduler) as client:
+        forward_worker_logs(client)
         futures = [client.submit(fn, *args, pure=False, priority=options.get("priority", 0))
                    for args in calls]  # fmt: skip
         return client.gather(futures)
@@ -131,6 +133,7 @@ def _map_then(options: dict, fn: Callable, calls: list[tuple], then: Callable,
 
     priority = options.get("priority", 0)
     with Client(scheduler) as client:
+        forward_worker_logs(client)
         futures = [client.submit(fn, *args, pure=False, priority=priority) for args in calls]
         after = [client.submit(_after, futures[i], then, *args, pure=False, priority=priority)
                  for i, args in zip(parents, then_calls, strict=True)]  # fmt: skip

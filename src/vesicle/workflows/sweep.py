@@ -68,7 +68,7 @@ import h5py
 from vesicle.dynamics.integrators import RunParameters
 from vesicle.io.files import open_file, plain, stamp, write_atomically
 from vesicle.model.parameters import Discretisation, Physics, stable_key
-from vesicle.parallel import close_cluster, local_cluster
+from vesicle.parallel import close_cluster, forward_worker_logs, local_cluster
 from vesicle.workflows.config import SECTIONS, ConfigError, solver_from
 from vesicle.workflows.tasks import FOLDERS, GRID_KEYS, OPTIONS, TASKS, check_options
 
@@ -375,10 +375,12 @@ def _client(workers: int | None, scheduler: str | None) -> tuple:
     from distributed import Client  # ~1 s to import: only here
 
     if scheduler is not None:
-        return Client(scheduler), None
-    n = workers or max(1, os.cpu_count() or 1)
-    cluster = local_cluster(n)
-    return Client(cluster), cluster
+        client, cluster = Client(scheduler), None
+    else:
+        cluster = local_cluster(workers or max(1, os.cpu_count() or 1))
+        client = Client(cluster)
+    forward_worker_logs(client)  # with --verbose: each curve's and run's progress shows here
+    return client, cluster
 
 
 def task_key(config: SweepConfig, point: Physics) -> str:
