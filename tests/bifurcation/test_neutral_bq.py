@@ -84,7 +84,7 @@ def test_an_interrupted_curve_keeps_what_it_found(monkeypatch, tmp_path):
     from vesicle.cli import main
 
     def interrupted(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points,
-                    lam0, say, *rest):  # fmt: skip
+                    lam0, say, *rest, **kwargs):  # fmt: skip
         say({"seed": {"bq": 0.0, "lambda_c": 8.0}})
         say({"curve": "hopf", "bq": 0.5, "lambda_c": 7.5, "located": True})
         raise KeyboardInterrupt

@@ -298,7 +298,7 @@ def neutral_curve_bq(
     failed: list[dict] = []
     try:
         return _trace(physics, disc, bqs, lams, analysis, form, (lo, hi), settings, max_points,
-                      memo, lam0, say, under_way, curves, special, failed, t0)  # fmt: skip
+                      lam0, say, under_way, curves, special, failed, t0, memo=memo)  # fmt: skip
     except KeyboardInterrupt as err:
         done = [{"kind": c.kind, "end": c.end, "points": [_point_dict(q) for q in c.points]}
                 for c in curves]  # fmt: skip
@@ -311,9 +311,8 @@ def neutral_curve_bq(
             "seconds": time.perf_counter() - t0}) from err  # fmt: skip
 
 
-def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points, memo,
-           lam0, say,
-           under_way, curves, special, failed, t0) -> BqCurve:  # fmt: skip
+def _trace(physics, disc, bqs, lams, analysis, form, lam_range, settings, max_points, lam0, say,
+           under_way, curves, special, failed, t0, memo=None) -> BqCurve:  # fmt: skip
     """The work of :func:`neutral_curve_bq` (its lists filled as it goes, for an
     interruption)."""
     lo, hi = lam_range
