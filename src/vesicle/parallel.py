@@ -18,6 +18,8 @@ laptop and on a cluster.
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import logging
 import os
 from collections.abc import Iterator
@@ -30,6 +32,8 @@ __all__ = [
     "executor",
     "forward_worker_logs",
     "grid_threads",
+    "keep_freed_memory",
+    "keeping_memory",
     "local_cluster",
     "threads_from_environment",
 ]
@@ -77,11 +81,16 @@ def local_cluster(workers: int):
     sets it): a process per core.  Two ring threads in each of two workers on two cores made
     every sweep point about 2x slower (measured 2026-12-03: 30 s against 14.4 s a branch of the
     quick ``stress-split``; ``python benchmarks/run.py dask``)."""
+    import dask
     from distributed import LocalCluster  # ~1 s to import: only here
 
     env = {"VESICLE_THREADS": os.environ.get("VESICLE_THREADS", "1")}
-    return LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
-                        dashboard_address=None, env=env)  # fmt: skip
+    spawn = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
+    if keeping_memory():  # glibc reads these at a process's start (keep_freed_memory)
+        spawn.update(KEEP_MEMORY_ENVIRON)
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": spawn}):
+        return LocalCluster(n_workers=int(workers), threads_per_worker=1, processes=True,
+                            dashboard_address=None, env=env)  # fmt: skip
 
 
 def close_cluster(cluster) -> None:
@@ -96,6 +105,54 @@ def close_cluster(cluster) -> None:
         cluster.close()
     finally:
         nanny.setLevel(level)
+
+
+#: glibc ``mallopt`` parameters (malloc.h) and the values :func:`keep_freed_memory` gives them:
+#: no ``mmap`` for large blocks, the heap trimmed only above 2 GiB - 1 free at its top (the
+#: most ``mallopt`` takes), one arena for all threads (a thread's own arena maps its large
+#: blocks whatever the other two say).
+KEEP_MEMORY = {"M_MMAP_MAX": (-4, 0), "M_TRIM_THRESHOLD": (-1, 2**31 - 1), "M_ARENA_MAX": (-8, 1)}
+#: The same as glibc's environment variables, which take effect from a process's start: what a
+#: :func:`local_cluster`'s nannies set before they start their workers.
+KEEP_MEMORY_ENVIRON = {"MALLOC_MMAP_MAX_": "0", "MALLOC_TRIM_THRESHOLD_": str(2**31 - 1),
+                       "MALLOC_ARENA_MAX": "1"}  # fmt: skip
+
+
+def keeping_memory() -> bool:
+    """Whether the package sets the allocator to keep freed memory (:func:`keep_freed_memory`):
+    unless ``VESICLE_KEEP_MEMORY=0``."""
+    return os.environ.get("VESICLE_KEEP_MEMORY", "1").strip() != "0"
+
+
+def keep_freed_memory() -> bool:
+    """Let this process's C allocator (glibc's malloc) keep the memory it frees for the next
+    allocations, instead of handing it back to the system (:data:`KEEP_MEMORY`).
+
+    Every new page the system gives a process is zeroed first.  A steady state at N = 8 on
+    32x64 allocates and frees its large arrays (operators of hundreds of MB) many times over,
+    and on this machine the zeroing took as long as the arithmetic: ``vesicle tt --stability``
+    at N = 8 on 32x64 spent 19-27 s in the kernel beside 29 s of its own, most of it clearing
+    pages (``perf``), and on a Dask worker, whose nanny has glibc hand back any 64 kB it can
+    (``MALLOC_TRIM_THRESHOLD_=65536``), 33 s in 3.4 million page faults; kept, 0.3 s from its
+    second state on (docs/reference/performance.md, *Memory the allocator keeps*).  A process
+    then keeps its peak memory until it ends; it does not grow beyond it.
+
+    It applies to allocations made after the call, in threads that have not allocated yet
+    (one arena): the command line calls it first thing.  A Dask worker has its threads
+    running before any code of ours, and called there it changed nothing (measured); so
+    :func:`local_cluster`'s workers get it from their start instead
+    (:data:`KEEP_MEMORY_ENVIRON` in their nannies' ``pre-spawn-environ``), and a cluster of
+    your own gets it the same way (docs/howto/sweeps.md, *On a cluster*).
+    ``VESICLE_KEEP_MEMORY=0`` leaves the allocator as it is (the reference).  Elsewhere than
+    on glibc, nothing changes.  Whether it applied."""
+    if not keeping_memory():
+        return False
+    try:
+        mallopt = ctypes.CDLL(ctypes.util.find_library("c")).mallopt
+    except (OSError, AttributeError, TypeError):  # not glibc (macOS, musl, Windows)
+        return False
+    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
+    return all([bool(mallopt(param, value)) for param, value in KEEP_MEMORY.values()])
 
 
 def _log_level(name: str, level: int) -> None:

@@ -21,6 +21,7 @@ import click
 from vesicle._version import __version__
 from vesicle.blas import one_blas_thread
 from vesicle.io.files import stamped
+from vesicle.parallel import keep_freed_memory
 from vesicle.workflows.costs import command_help
 
 
@@ -51,6 +52,7 @@ def main(verbose: int) -> None:
         one_blas_thread()
     except ValueError as err:
         fail(str(err))
+    keep_freed_memory()
 
 
 def configure_logging(level: int) -> logging.Handler | None:
