@@ -177,9 +177,10 @@ def test_an_interruption_carries_the_curves_traced_so_far():
 
 def test_an_interrupted_curve_run_again_with_its_memo_replays_and_goes_on(tmp_path):
     """Ctrl-C at the Hopf curve's first point (v = 0.98, N = 4 on 12x24), then the same call
-    with the same memo: the evaluations made before are looked up (none computed twice), the
-    rest computed, and the neutral points are those of a run never interrupted, to the
-    augmented systems' tolerance (1e-8; the resumed run's solves start from other guesses)."""
+    with the same memo: the seed's search result and the evaluations made after it are looked
+    up (none computed twice), the rest computed, and the neutral points are those of a run
+    never interrupted, to the augmented systems' tolerance (1e-8; the resumed run's solves
+    start from other guesses)."""
     from vesicle.bifurcation.neutral_codim2 import CurveInterrupted, curve_memo
 
     physics, disc, chis = vs.Physics(v=0.98), vs.Discretisation(grid=12, degree=4), [1.0, 2.0]
@@ -194,8 +195,12 @@ def test_an_interrupted_curve_run_again_with_its_memo_replays_and_goes_on(tmp_pa
         neutral_curve_codim2(physics, chis, disc, memo=memo, progress=progress)
     kept = len(memo)
     again = curve_memo(tmp_path / "m", physics, disc)
-    resumed = neutral_curve_codim2(physics, chis, disc, memo=again)
-    assert kept > 0 and again.hits == kept and again.misses > 0
+    said = []
+    resumed = neutral_curve_codim2(physics, chis, disc, memo=again, progress=said.append)
+    # the seed's search is replayed whole (its result kept), not stepped again: its own
+    # evaluations are then not looked up, the continuation's are
+    assert said[0]["replayed"] == "seed" and said[0]["chi"] == chis[0]
+    assert kept > 0 and 0 < again.hits < kept and again.misses > 0
     assert [p.chi for p in resumed.points] == [p.chi for p in whole.points] == chis
     for a, b in zip(resumed.points, whole.points, strict=True):
         assert a.located and b.located and a.bifurcation == b.bifurcation == "hopf"

@@ -54,3 +54,22 @@ def test_a_full_disk_stops_the_saving_not_the_computation(tmp_path, monkeypatch,
     assert not list((tmp_path / "m").glob("*/*.tmp"))  # no partial file left
     memo.clear()
     assert not (tmp_path / "m").exists()
+
+
+def test_a_record_comes_back_whole_or_not_at_all(tmp_path):
+    """A search's result (several arrays, complex ones among them, and scalars with a NaN)
+    comes back as it was kept; a record missing its meta or one of its arrays is a miss."""
+    memo = EvaluationMemo(tmp_path / "m", {"who": "test"})
+    arrays = {"x": np.arange(5.0), "v": np.array([1 + 2j, 3 - 1j])}
+    meta = {"kind": "hopf", "converged": True, "iterations": 4, "tests": {"g": float("nan")}}
+    memo.save_record("seed", (1.5,), arrays, meta)
+    got, back = memo.load_record("seed", (1.5,))
+    assert np.array_equal(got["x"], arrays["x"]) and np.array_equal(got["v"], arrays["v"])
+    assert got["v"].dtype == complex
+    assert back["kind"] == "hopf" and back["converged"] is True and back["iterations"] == 4
+    assert np.isnan(back["tests"]["g"])
+    assert memo.load_record("seed", (1.5000001,)) is None  # other inputs
+    memo._path(memo.key("seed/v", 1.5)).unlink()  # a part lost: the record is not whole
+    assert memo.load_record("seed", (1.5,)) is None
+    memo._path(memo.key("seed/meta", 1.5)).unlink()
+    assert memo.load_record("seed", (1.5,)) is None

@@ -594,6 +594,41 @@ def _seed(ctx: _Context, chi: float) -> codim2.CurvePoint:
     return _first_loss(ctx, chi, _start_lambda(ctx, chi))
 
 
+#: The scalar fields of a critical point kept by :func:`_kept` (its arrays are x, p,
+#: eigenvalues, v, w).
+_POINT_META = ("kind", "omega", "residual", "converged", "iterations", "tests",
+               "other_unstable", "refused")  # fmt: skip
+
+
+def _kept(ctx: _Context, name: str, compute, chi: float, lam0: float | None = None):
+    """``compute()``, a critical point found by a search (the seed, a first loss), looked up
+    first in the curve's memo (``ctx.eq.memo``) and kept there when found: a resumed curve
+    replays the searches' results as it replays the evaluations, instead of stepping their
+    branches again (at v = 0.85, N = 8 they were half of a curve's first 40 min).  Keyed by
+    ``name``, ``chi`` and ``lam0`` to 6 digits (the start lambda comes from the curve points so
+    far, which a replay reproduces to about 1e-10).  A search that fails is not kept (run again
+    on resume).  A replayed point reports no evaluations (none were made)."""
+    memo = getattr(ctx.eq, "memo", None)
+    if memo is None:
+        return compute()
+    inputs = (float(chi),) if lam0 is None else (float(chi), round(float(lam0), 6))
+    found = memo.load_record(name, inputs)
+    if found is not None:
+        arrays, meta = found
+        ctx.say({"chi": chi, "replayed": name, "lam": float(arrays["p"][1])})
+        return codim2.CurvePoint(x=arrays["x"], p=arrays["p"], eigenvalues=arrays["eigenvalues"],
+                                 v=arrays["v"], w=arrays["w"],
+                                 **{k: meta[k] for k in _POINT_META})  # fmt: skip
+    point = compute()
+    if point is not None:
+        memo.save_record(name, inputs,
+                         {"x": point.x, "p": point.p, "eigenvalues": point.eigenvalues,
+                          "v": point.v, "w": point.w},
+                         {k: dict(point.tests) if k == "tests" else getattr(point, k)
+                          for k in _POINT_META})  # fmt: skip
+    return point
+
+
 def _start_lambda(ctx: _Context, chi: float) -> float:
     """A lambda on the stable side of the curve at ``chi``: 0.9 times the nearest curve point's
     lambda (1.1 on the vorticity branch), else the leading-order estimate's half (the
@@ -1075,7 +1110,7 @@ def neutral_curve_codim2(
     ctx.cusps = bool(cusps)
     failed: list[dict] = []
     try:
-        seed = _seed(ctx, seed_chi)
+        seed = _kept(ctx, "seed", lambda: _seed(ctx, seed_chi), seed_chi)
         if not seed.converged:
             raise NewtonError(f"the critical point at chi = {seed_chi:g} did not converge "
                               f"(residual {seed.residual:.2e})")  # fmt: skip
@@ -1102,11 +1137,14 @@ def neutral_curve_codim2(
                 if turn is not None and coarse is not None:  # past where the folds end: the
                     # search at the coarse resolution only (one that finds nothing steps the
                     # whole box)
-                    point = _coarse_first_loss(ctx, c, _start_lambda(ctx, c))
+                    lam0 = _start_lambda(ctx, c)
+                    point = _kept(ctx, "coarse first loss",
+                                  lambda: _coarse_first_loss(ctx, c, lam0), c, lam0)  # noqa: B023
                     if point is None:
                         raise NewtonError("the search at N = 4 on 16x32 found none")
                 else:
-                    point = _loss(ctx, c, _start_lambda(ctx, c))
+                    lam0 = _start_lambda(ctx, c)
+                    point = _kept(ctx, "first loss", lambda: _loss(ctx, c, lam0), c, lam0)  # noqa: B023
             except (*_FAILURES, RuntimeError, ValueError, np.linalg.LinAlgError) as err:
                 note = "" if turn is None else (
                     f"; the fold curve turns back at chi = {math.exp(turn.point.p[0]):.6g}, "

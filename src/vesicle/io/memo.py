@@ -127,6 +127,31 @@ class EvaluationMemo:
             self.save(key, value)
         return value
 
+    def save_record(self, name: str, inputs: tuple, arrays: dict, meta: dict) -> None:
+        """Keep a result made of several ``arrays`` and a JSON-able ``meta`` under ``name`` and
+        ``inputs``.  The meta is written last: a record whose meta is found is whole."""
+        for field, value in arrays.items():
+            self.save(self.key(f"{name}/{field}", *inputs), np.asarray(value))
+        text = json.dumps({"fields": sorted(arrays), "meta": plain(meta)})
+        self.save(self.key(f"{name}/meta", *inputs), np.frombuffer(text.encode(), np.uint8))
+
+    def load_record(self, name: str, inputs: tuple) -> tuple[dict, dict] | None:
+        """``(arrays, meta)`` of :meth:`save_record`, or None where any part is missing."""
+        raw = self.load(self.key(f"{name}/meta", *inputs))
+        if raw is None:
+            return None
+        try:
+            record = json.loads(raw.tobytes().decode())
+        except ValueError:
+            return None
+        arrays = {}
+        for field in record["fields"]:
+            value = self.load(self.key(f"{name}/{field}", *inputs))
+            if value is None:
+                return None
+            arrays[field] = value
+        return arrays, record["meta"]
+
     def clear(self) -> None:
         """Remove the folder (the computation finished and its result is stored)."""
         shutil.rmtree(self.folder, ignore_errors=True)
