@@ -8,6 +8,7 @@ measurements.md) and 7.5502789 at Bq = 1, both Hopf with omega_R = 1.2777 and 1.
 import json
 import math
 
+import numpy as np
 import pytest
 
 import vesicle as vs
@@ -104,3 +105,41 @@ def test_an_interrupted_curve_keeps_what_it_found(monkeypatch, tmp_path):
     written = json.loads(out.read_text())
     assert written["interrupted"] and written["curves"][0]["points"][0]["lambda_c"] == 7.5
     assert written["physics"]["v"] == 0.95 and "vesicle_version" in written
+
+
+def test_the_command_keeps_its_evaluations_and_resumes(monkeypatch, tmp_path):
+    """``vesicle neutral-bq --out c.json`` keeps the curve's evaluations in ``c.codim2/`` (the
+    memo the library is given); interrupted, the same command is refused without ``--resume``
+    (it would start over them) and with ``--resume`` is given the same folder back, with what
+    it held; ``--resume`` needs ``--out`` and excludes ``--overwrite``."""
+    from click.testing import CliRunner
+
+    import vesicle.bifurcation.neutral_bq as nbq
+    from vesicle.cli import main
+
+    memos = []
+
+    def interrupted(*args, memo=None, **kwargs):
+        memos.append((memo, len(memo)))
+        memo.save(memo.key("residual", float(len(memos))), np.zeros(3))
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(nbq, "_trace", interrupted)
+    out = tmp_path / "c.json"
+    args = ["neutral-bq", "--bq", "0,1", "--degree", "4", "--grid", "16", "--out", str(out)]
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code == 130, r.output
+    assert "--resume" in r.output
+    assert memos[0][0].folder == tmp_path / "c.codim2" and memos[0][1] == 0
+    r = CliRunner().invoke(main, args)
+    assert r.exit_code != 0 and "--resume" in r.output and len(memos) == 1  # refused first
+    r = CliRunner().invoke(main, [*args, "--resume"])
+    assert r.exit_code == 130 and "replaying the 1 evaluations" in r.output
+    assert memos[1][0].folder == tmp_path / "c.codim2" and memos[1][1] == 1
+    for extra, says in ((["--resume", "--overwrite"], "--overwrite"),):
+        r = CliRunner().invoke(main, [*args, *extra])
+        assert r.exit_code != 0 and says in r.output
+    r = CliRunner().invoke(main, args[:-2] + ["--resume"])
+    assert r.exit_code != 0 and "give --out" in r.output
+    r = CliRunner().invoke(main, [*args, "--overwrite"])  # the kept evaluations removed first
+    assert r.exit_code == 130 and memos[-1][1] == 0

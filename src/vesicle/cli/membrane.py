@@ -5,6 +5,7 @@ from __future__ import annotations
 import click
 
 from vesicle.bifurcation.neutral_bq import BqCurveInterrupted, neutral_curve_bq
+from vesicle.bifurcation.neutral_codim2 import curve_memo
 from vesicle.cli.base import check_output, command_line, fail, interruptible, main
 from vesicle.cli.options import (
     config_option,
@@ -14,7 +15,16 @@ from vesicle.cli.options import (
     physics_options,
     task_option,
 )
-from vesicle.cli.steady import _configure, _echo_progress, _emit_json, write_partial
+from vesicle.cli.steady import (
+    _check_codim2_resume,
+    _clear_memo,
+    _configure,
+    _echo_progress,
+    _emit_json,
+    memo_folder,
+    write_partial,
+)
+from vesicle.io.memo import MemoMismatch
 from vesicle.model.settings import StabilitySettings
 from vesicle.ranges import parse_range
 from vesicle.solve.solver import SolverError
@@ -39,15 +49,23 @@ from vesicle.steady.newton import NewtonError
 @task_option("modes")
 @task_option("jacobian")
 @click.option("--out", type=click.Path(dir_okay=False), default=None,
-              help="Write the curve as JSON to this file.")
-@click.option("--overwrite", is_flag=True, help="Replace an existing --out file.")
+              help="Write the curve as JSON to this file; while the curve is traced its "
+              "evaluations are kept beside it (curve.json -> curve.codim2/) for --resume.")
+@click.option("--resume", is_flag=True,
+              help="Continue the interrupted curve of --out: its evaluations kept in "
+              "curve.codim2/ are replayed, and it goes on from where it stopped.")
+@click.option("--overwrite", is_flag=True,
+              help="Replace an existing --out file and the evaluations kept beside it.")
 @click.option("--json", "as_json", is_flag=True, help="One JSON object on stdout.")
 @config_option
 @click.pass_context
-@interruptible(lambda p: f"what was found is in {p['out']} (complete: false)" if p.get("out")
+@interruptible(lambda p: f"what was found is in {p['out']} (complete: false), its evaluations "
+               f"in {memo_folder(p['out'])}: continue with the same command and --resume"
+               if p.get("out")
                else "nothing was kept (give --out to keep what an interrupted curve found)")
-def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, modes, jacobian,
-                       out, overwrite, as_json, config_path, **options) -> None:  # fmt: skip
+def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, modes,
+                       jacobian, out, resume, overwrite, as_json, config_path,
+                       **options) -> None:  # fmt: skip
     """Critical viscosity ratio against the membrane's Boussinesq number, lambda_c(Bq), at
     fixed v and chi by two-parameter continuation in (Bq, lambda), and the critical Bq at
     the viscosity ratios of --lam-at (membrane viscosity: docs/reference/membrane-viscosity.md).
@@ -66,25 +84,52 @@ def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, m
         fail(f"--lam-min must be positive, got {lam_min}")
     if lam0 is not None and not (lam0 > 0):
         fail(f"--lam0 must be positive, got {lam0}")
+    if resume and out is None:
+        fail("--resume continues the curve of an --out file: give --out")
+    if resume and overwrite:
+        fail("--resume continues the curve in --out, --overwrite replaces it: give one")
     if out is not None:
-        check_output(out, overwrite=overwrite, resume=False)
+        if out.endswith(".codim2"):
+            fail("--out: a curve's file cannot end in .codim2 (the name of the folder of its "
+                 "evaluations)")  # fmt: skip
+        if resume:
+            _check_codim2_resume(out)
+        # an interrupted curve's file (complete: false) is replaced when it resumes
+        check_output(out, overwrite=overwrite or resume, resume=False)
+        _clear_memo(memo_folder(out), resume, overwrite)
+    memo = None
     try:
         _configure(ctx, options, config_path)
         physics, disc = make_physics(options), make_discretisation(options)
-        curve = neutral_curve_bq(physics, bqs, disc, lam_at=lams, lam0=lam0,
-                                 analysis=StabilitySettings(orientation, modes, jacobian),
+        analysis = StabilitySettings(orientation, modes, jacobian)
+        if out is not None:
+            memo = curve_memo(memo_folder(out), physics, disc, analysis, form, ("lam", "bq"))
+            if len(memo):
+                click.echo(f"resuming: replaying the {len(memo)} evaluations kept in "
+                           f"{memo.folder}", err=True)  # fmt: skip
+        curve = neutral_curve_bq(physics, bqs, disc, lam_at=lams, lam0=lam0, analysis=analysis,
                                  form=form, lam_range=(lam_min, 100.0),
-                                 progress=_echo_progress)  # fmt: skip
+                                 progress=_echo_progress, memo=memo)  # fmt: skip
     except BqCurveInterrupted as err:  # what was found is kept, then the interruption goes on
         write_partial(ctx, out, err.partial, physics, disc, ("lam", "bq"))
         raise
+    except MemoMismatch as err:
+        fail(f"{err}: --overwrite starts the curve afresh")
     except (ValueError, TypeError, NewtonError, SolverError, RuntimeError, OSError) as err:
-        fail(str(err))
+        fail(str(err) + ("" if memo is None else
+                         f" (its evaluations are kept in {memo.folder}; --resume replays them)"))
     result = {**curve.to_dict(), "command": command_line(ctx)}
+    if memo is not None:
+        result["replayed"] = memo.hits
     if curve.failed:  # what was found is written; the command still fails
         _emit_json(result, out, as_json)
-        fail("; ".join(f["error"] for f in curve.failed))
-    if _emit_json(result, out, as_json):
+        kept = ("" if memo is None else
+                f" (its evaluations stay in {memo.folder}: --resume replays them)")
+        fail("; ".join(f["error"] for f in curve.failed) + kept)
+    written = _emit_json(result, out, as_json)
+    if memo is not None:  # the curve is in --out: its evaluations are no longer needed
+        memo.clear()
+    if written:
         return
     for p in result["points"]:
         if p["lambda_c"] is None:
