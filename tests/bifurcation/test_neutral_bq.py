@@ -139,7 +139,7 @@ def test_the_command_keeps_its_evaluations_and_resumes(monkeypatch, tmp_path):
     for extra, says in ((["--resume", "--overwrite"], "--overwrite"),):
         r = CliRunner().invoke(main, [*args, *extra])
         assert r.exit_code != 0 and says in r.output
-    r = CliRunner().invoke(main, args[:-2] + ["--resume"])
+    r = CliRunner().invoke(main, [*args[:-2], "--resume"])
     assert r.exit_code != 0 and "give --out" in r.output
     r = CliRunner().invoke(main, [*args, "--overwrite"])  # the kept evaluations removed first
     assert r.exit_code == 130 and memos[-1][1] == 0

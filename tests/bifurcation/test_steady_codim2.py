@@ -383,3 +383,42 @@ def test_with_a_memo_a_fresh_problem_replays_the_evaluations_and_goes_on(state, 
     action = again.newton_action_derivative(x, p, q, d, replayed[1])
     assert np.all(np.isfinite(action)) and again.memo.misses == 1
     assert np.abs(action - expected).max() < 1e-5 * np.abs(expected).max()
+
+
+def test_with_a_memo_a_failed_evaluation_is_replayed_as_the_same_failure(state, tmp_path,
+                                                                         monkeypatch):
+    """A Jacobian or Jacobian action that failed when computed is kept (as NaN) and fails
+    again when a resumed curve meets the same point, without computing it again (the Jacobian
+    is NaN, as the public ``jacobian`` reports a failure; the action raises)."""
+    from vesicle.bifurcation.neutral_codim2 import curve_memo
+    from vesicle.solve.solver import SolverError
+
+    def fails(self, *args):
+        raise SolverError("no convergence (a stand-in)")
+
+    first = SteadyEquations(state.physics, TINY)
+    first.memo = curve_memo(tmp_path / "m", state.physics, TINY)
+    x, p = first.state(state)
+    q = np.eye(x.size)[:, :2]
+    monkeypatch.setattr(SteadyEquations, "_computed_jacobian", fails)
+    monkeypatch.setattr(SteadyEquations, "_computed_times", fails)
+    first = SteadyEquations(state.physics, TINY)  # nothing in memory
+    first.memo = curve_memo(tmp_path / "m", state.physics, TINY)
+    assert np.all(np.isnan(first.jacobian(x, p)))
+    with pytest.raises(SolverError):
+        first._times(x, p, q)
+    assert len(first.memo) == 2  # both failures kept
+
+    def computed(self, *args):
+        pytest.fail("a failure kept was computed again")
+
+    monkeypatch.setattr(SteadyEquations, "_computed_jacobian", computed)
+    monkeypatch.setattr(SteadyEquations, "_computed_times", computed)
+    again = SteadyEquations(state.physics, TINY)
+    again.memo = curve_memo(tmp_path / "m", state.physics, TINY)
+    with pytest.raises(SolverError, match="replayed"):
+        again._jacobian(x, p)
+    assert np.all(np.isnan(again.jacobian(x, p)))
+    with pytest.raises(SolverError, match="replayed"):
+        again._times(x, p, q)
+    assert again.memo.hits == 3

@@ -268,21 +268,30 @@ class SteadyEquations(codim2.Problem):
             self._last_jacobian = (key, J)
             return J
         if self.memo is not None:
-            J = self.memo.cached("jacobian", lambda: self._failed_as_nan(x, p), *_inputs(x, p))
-            if not np.all(np.isfinite(J)):  # a failure, replayed
-                raise SolverError("the Jacobian failed here when it was computed (replayed)")
+            J = self._memoised("jacobian", "Jacobian", lambda: self._computed_jacobian(x, p),
+                               (x.size, x.size), (ShapeError, SolverError), x, p)  # fmt: skip
             self._keep_jacobian(key, J)
             return J.copy()
         return self._computed_jacobian(x, p)
 
-    def _failed_as_nan(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
-        """The Jacobian, or NaN where it fails: what the memo keeps, so that a resumed curve
-        meets the same failure at the same point (the solver's state then may differ)."""
-        try:
-            return self._computed_jacobian(x, p)
-        except (ShapeError, SolverError) as err:
-            log.debug("Jacobian at p = %s: %s", p, err)
-            return np.full((x.size, x.size), np.nan)
+    def _memoised(self, name: str, what: str, compute, shape: tuple, failures: tuple, x, p,
+                  *more) -> np.ndarray:  # fmt: skip
+        """``compute()`` looked up in :attr:`memo` first under ``name`` and the point's inputs
+        (and ``more``), kept when computed.  A failure (``failures``) is kept as NaN of
+        ``shape``, so that a resumed curve meets the same failure at the same point (the
+        solver's state then may differ), and raised again as a ``SolverError`` when replayed."""
+
+        def or_nan() -> np.ndarray:
+            try:
+                return compute()
+            except failures as err:
+                log.debug("%s at p = %s: %s", what, p, err)
+                return np.full(shape, np.nan)
+
+        out = self.memo.cached(name, or_nan, *_inputs(x, p), *more)
+        if out.size and np.all(np.isnan(out)):  # a failure, replayed
+            raise SolverError(f"the {what} failed here when it was computed (replayed)")
+        return out
 
     def _computed_jacobian(self, x: np.ndarray, p: np.ndarray) -> np.ndarray:
         key = self._point_key(x, p)
@@ -400,21 +409,11 @@ class SteadyEquations(codim2.Problem):
         if self._outside(p):
             raise ValueError(f"parameters outside the physics: {self.plane} = {tuple(p)}")
         if self.memo is not None:
-            out = self.memo.cached("times", lambda: self._times_or_nan(x, p, Q),
-                                   *_inputs(x, p), np.asarray(Q, float))  # fmt: skip
-            if out.size and np.all(np.isnan(out)):  # a failure, replayed
-                raise SolverError("the Jacobian action failed here when it was computed "
-                                  "(replayed)")  # fmt: skip
-            return out
+            return self._memoised("times", "Jacobian action",
+                                  lambda: self._computed_times(x, p, Q), (x.size, Q.shape[1]),
+                                  (ShapeError, SolverError, ValueError), x, p,
+                                  np.asarray(Q, float))  # fmt: skip
         return self._computed_times(x, p, Q)
-
-    def _times_or_nan(self, x, p, Q) -> np.ndarray:
-        """:meth:`_computed_times`, or NaN where it fails (what the memo keeps)."""
-        try:
-            return self._computed_times(x, p, Q)
-        except (ShapeError, SolverError, ValueError) as err:
-            log.debug("Jacobian action at p = %s: %s", p, err)
-            return np.full((x.size, Q.shape[1]), np.nan)
 
     def _computed_times(self, x: np.ndarray, p: np.ndarray, Q: np.ndarray) -> np.ndarray:
         P = self.problem_at(p)
