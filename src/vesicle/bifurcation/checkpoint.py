@@ -31,10 +31,11 @@ __all__ = ["Checkpoint", "read_checkpoint", "state_path", "states_folder", "writ
 log = logging.getLogger(__name__)
 
 
-def states_folder(out: str | os.PathLike) -> Path:
-    """The default checkpoint folder of an ``--out`` file: ``curve.json`` -> ``curve.states``."""
+def states_folder(out: str | os.PathLike, suffix: str = ".states") -> Path:
+    """The default checkpoint folder of an ``--out`` file: ``curve.json`` -> ``curve.states``
+    (another ``suffix``: ``curve.codim2`` for a codim2 curve's evaluations)."""
     out = Path(out)
-    return out.with_suffix(".states") if out.suffix else out.with_name(out.name + ".states")
+    return out.with_suffix(suffix) if out.suffix else out.with_name(out.name + suffix)
 
 
 def state_path(folder: str | os.PathLike, chi: float) -> Path:

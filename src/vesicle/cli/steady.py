@@ -393,8 +393,7 @@ def _clear_states(folder: Path, resume: bool, overwrite: bool) -> None:
 def memo_folder(out: str | os.PathLike) -> Path:
     """Where a codim2 curve written to ``out`` keeps its evaluations while it is traced
     (``curve.json`` -> ``curve.codim2/``)."""
-    out = Path(out)
-    return out.with_suffix(".codim2") if out.suffix else out.with_name(out.name + ".codim2")
+    return states_folder(out, ".codim2")
 
 
 def _check_codim2_resume(out: str) -> None:
