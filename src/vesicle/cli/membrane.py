@@ -6,7 +6,7 @@ import click
 
 from vesicle.bifurcation.neutral_bq import BqCurveInterrupted, neutral_curve_bq
 from vesicle.bifurcation.neutral_codim2 import curve_memo
-from vesicle.cli.base import check_output, command_line, fail, interruptible, main
+from vesicle.cli.base import command_line, fail, interruptible, main
 from vesicle.cli.options import (
     config_option,
     discretisation_options,
@@ -16,11 +16,10 @@ from vesicle.cli.options import (
     task_option,
 )
 from vesicle.cli.steady import (
-    _check_codim2_resume,
-    _clear_memo,
     _configure,
     _echo_progress,
     _emit_json,
+    check_codim2_out,
     memo_folder,
     write_partial,
 )
@@ -84,19 +83,7 @@ def neutral_bq_command(ctx, bq_text, lam_at, lam_min, lam0, form, orientation, m
         fail(f"--lam-min must be positive, got {lam_min}")
     if lam0 is not None and not (lam0 > 0):
         fail(f"--lam0 must be positive, got {lam0}")
-    if resume and out is None:
-        fail("--resume continues the curve of an --out file: give --out")
-    if resume and overwrite:
-        fail("--resume continues the curve in --out, --overwrite replaces it: give one")
-    if out is not None:
-        if out.endswith(".codim2"):
-            fail("--out: a curve's file cannot end in .codim2 (the name of the folder of its "
-                 "evaluations)")  # fmt: skip
-        if resume:
-            _check_codim2_resume(out)
-        # an interrupted curve's file (complete: false) is replaced when it resumes
-        check_output(out, overwrite=overwrite or resume, resume=False)
-        _clear_memo(memo_folder(out), resume, overwrite)
+    check_codim2_out(out, resume, overwrite)
     memo = None
     try:
         _configure(ctx, options, config_path)

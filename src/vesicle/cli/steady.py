@@ -424,6 +424,26 @@ def _clear_memo(folder: Path, resume: bool, overwrite: bool) -> None:
     shutil.rmtree(folder, ignore_errors=True)
 
 
+def check_codim2_out(out: str | None, resume: bool, overwrite: bool) -> None:
+    """A codim2 curve's ``--out``, ``--resume`` and ``--overwrite``, before any work: the
+    combinations refused, a complete curve not resumed, the kept evaluations replayed
+    (``--resume``), removed (``--overwrite``) or refused (neither)."""
+    if resume and out is None:
+        fail("--resume continues the curve of an --out file: give --out")
+    if resume and overwrite:
+        fail("--resume continues the curve in --out, --overwrite replaces it: give one")
+    if out is None:
+        return
+    if Path(out).suffix == ".codim2":
+        fail("--out: a curve's file cannot end in .codim2 (the name of the folder of its "
+             "evaluations)")  # fmt: skip
+    if resume:
+        _check_codim2_resume(out)
+    # an interrupted curve's file (complete: false) is replaced when it resumes
+    check_output(out, overwrite=overwrite or resume, resume=False)
+    _clear_memo(memo_folder(out), resume, overwrite)
+
+
 def _neutral_kept(out: str | None, states: str | None, method: str = "trace") -> str:
     """What an interrupted ``vesicle neutral`` kept, and how to go on."""
     if method == "codim2":
@@ -577,19 +597,7 @@ def neutral_command(ctx, chi_text, points, xtol, type_tol, no_type_change, cusps
         if states is not None:
             fail("--states applies to --continuation trace (the codim2 curve is written to "
                  "--out when it is complete; its evaluations are kept beside it)")  # fmt: skip
-        if resume and out is None:
-            fail("--resume continues the curve of an --out file: give --out")
-        if resume and overwrite:
-            fail("--resume continues the curve in --out, --overwrite replaces it: give one")
-        if out is not None:
-            if Path(out).suffix == ".codim2":
-                fail("--out: a curve's file cannot end in .codim2 (the name of the folder "
-                     "of its evaluations)")  # fmt: skip
-            if resume:
-                _check_codim2_resume(out)
-            # an interrupted curve's file (complete: false) is replaced when it resumes
-            check_output(out, overwrite=overwrite or resume, resume=False)
-            _clear_memo(memo_folder(out), resume, overwrite)
+        check_codim2_out(out, resume, overwrite)
         _neutral_codim2(ctx, chis, form, orientation, modes, jacobian, out, as_json,
                         config_path, options, not no_type_change, cusps)  # fmt: skip
         return
