@@ -95,6 +95,11 @@ def test_dask_workers_keep_freed_memory(monkeypatch):
     counts = {}
     for keep in ("0", "1"):
         monkeypatch.setenv("VESICLE_KEEP_MEMORY", keep)
+        # a nanny sets its pre-spawn environment in this process too (distributed's own
+        # note): an earlier test's LocalCluster may have left the kept settings here, which
+        # the reference's worker would inherit
+        for name in ("MALLOC_MMAP_MAX_", "MALLOC_TRIM_THRESHOLD_", "MALLOC_ARENA_MAX"):
+            monkeypatch.delenv(name, raising=False)
         cluster = local_cluster(1)
         try:
             with Client(cluster) as client:
