@@ -133,10 +133,10 @@ def keep_freed_memory() -> bool:
     and on this machine the zeroing took as long as the arithmetic: ``vesicle tt --stability``
     at N = 8 on 32x64 spent 19-27 s in the kernel beside 29 s of its own, most of it clearing
     pages (``perf``), and on a Dask worker, whose nanny has glibc hand back any 64 kB it can
-    (``MALLOC_TRIM_THRESHOLD_=65536``), 33 s in 3.4 million page faults; kept, 0.3 s from its
-    second state on (docs/reference/performance.md, *Memory the allocator keeps*).  A process
-    then keeps its peak memory until it ends, and the peak grows a little (that state: 2.03
-    against 1.98 GB).
+    (``MALLOC_TRIM_THRESHOLD_=65536``), 28-35 s in 3.3-3.5 million page faults; kept, 0.6 s
+    from its second state on (docs/reference/performance.md, *Memory the allocator keeps*).
+    A process then keeps its peak memory until it ends, and the peak grows a little (that
+    state: 2.03 against 1.98 GB).
 
     It applies to allocations made after the call, in threads that have not allocated yet
     (one arena): the command line calls it first thing.  A Dask worker has its threads

@@ -606,8 +606,11 @@ def _kept(ctx: _Context, name: str, compute, chi: float, lam0: float | None = No
     replays the searches' results as it replays the evaluations, instead of stepping their
     branches again (at v = 0.85, N = 8 they were half of a curve's first 40 min).  Keyed by
     ``name``, ``chi`` and ``lam0`` to 6 digits (the start lambda comes from the curve points so
-    far, which a replay reproduces to about 1e-10).  A search that fails is not kept (run again
-    on resume).  A replayed point reports no evaluations (none were made)."""
+    far, which a replay reproduces to about 1e-10).  A search that raises is not kept (run
+    again on resume); a point that did not converge is kept and replayed as such.  A replayed
+    point reports no evaluations (none were made), and the stable states the search would have
+    kept for later starts (:func:`_keep_stable`) are not replayed: a later search may start
+    from another state, and its lookups then miss (computed, correct, only slower)."""
     memo = getattr(ctx.eq, "memo", None)
     if memo is None:
         return compute()
