@@ -826,11 +826,15 @@ TILTED_TU_QUICK: list[tuple[float, float, float]] = []
 
 
 #: SPEC §13's start: an instantaneous shape of the in-plane motion at the same (v, chi, lam),
-#: rotated out of the shear plane.  (lam, tilt in degrees) at v = 0.95, chi = 4: the in-plane
-#: run first (from the spheroid, to ``SNAPSHOT_T`` or its settled periods), then one tilted run
-#: from its shape at each phase of :data:`PHASES` (fractions of its last psi period, counted
-#: from the start of that period), beside the tilted-spheroid starts of :data:`TILTED`.
-SNAPSHOT = [(11.0, 54.0), (9.0, 54.0)]
+#: rotated out of the shear plane.  (lam, tilt in degrees[, t_end]) at v = 0.95, chi = 4: the
+#: in-plane run first (from the spheroid, to ``SNAPSHOT_T`` or its settled periods), then one
+#: tilted run from its shape at each phase of :data:`PHASES` (fractions of its last psi period,
+#: counted from the start of that period), beside the tilted-spheroid starts of :data:`TILTED`.
+#: Each stops once its orbit has settled (:data:`TILTED_ORBITS`), else at its t_end (the
+#: item's t_end where none is given).  Both go to t = 120: at N = 6 (16x32, 2026-12-07) neither
+#: lam = 9's three phases nor lam = 11's phase 0 had settled by t = 60, and lam = 9's spheroid
+#: start needs 60-120 at N = 4 to show its class (a t_end grown so resumes the runs cut there).
+SNAPSHOT = [(11.0, 54.0, 120.0), (9.0, 54.0, 120.0)]
 #: ``--quick``: none yet (an in-plane run and two phase runs at lam = 11 would add to the quick
 #: report's measured cost by an amount not measured; ``options["snapshot"]`` asks for them).
 SNAPSHOT_QUICK: list[tuple[float, float]] = []
@@ -1003,16 +1007,17 @@ def _fig23_plan(folder: Path, quick: bool, options: dict) -> _TiltedPlan:
     in_plane = [(str(folder / f"inplane_lam{lam:g}_N{n}_{g}.h5"),
                  run_parameters(lam, 4.0, g, n, periods=3, save_every=save_every,
                                 t_end=float(options.get("snapshot_t", SNAPSHOT_T))))
-                for g, n in resolutions for lam, _ in snap_cases]  # fmt: skip
+                for g, n in resolutions for lam, *_ in snap_cases]  # fmt: skip
     snap_calls, snap_keys = [], []
     sources = iter(in_plane)
     for g, n in resolutions:
-        for lam, tilt in snap_cases:
+        for lam, tilt, *end in snap_cases:
             source = next(sources)[0]
             for phase in phases:
                 name = f"snap_lam{lam:g}_tilt{tilt:g}_phase{phase:.3f}_N{n}_{g}"
                 snap_calls.append((str(folder / f"{name}.h5"),
-                                   run_parameters(lam, 4.0, g, n, t_end=t_end, tilt=tilt,
+                                   run_parameters(lam, 4.0, g, n, tilt=tilt,
+                                                  t_end=float(end[0]) if end else t_end,
                                                   save_every=save_every, **stops),
                                    source, phase))  # fmt: skip
                 snap_keys.append((lam, tilt, phase, g, n, name))
