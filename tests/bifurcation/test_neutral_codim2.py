@@ -207,3 +207,47 @@ def test_an_interrupted_curve_run_again_with_its_memo_replays_and_goes_on(tmp_pa
         assert abs(a.lambda_c - b.lambda_c) < 1e-8 * b.lambda_c
     with pytest.raises(MemoMismatch):
         curve_memo(tmp_path / "m", physics, vs.Discretisation(grid=12, degree=3))
+
+
+def test_a_replayed_search_puts_back_the_stable_states_it_kept(tmp_path):
+    """A search kept in the memo (``_kept``) keeps the stable states it found for later starts
+    (``_keep_stable``) with its point; a fresh context that replays it has those states again,
+    the same (chi, lambda, discretisation) and radius coefficients bit for bit, after the states
+    it already held, and the search is not run a second time.  The stand-in search appends two
+    states as the real one does (a spheroid and a perturbed one on 12x24)."""
+    from types import SimpleNamespace
+
+    from vesicle.bifurcation import codim2
+    from vesicle.bifurcation.neutral_codim2 import _kept, curve_memo
+    from vesicle.geometry.surface import Shape
+
+    physics, disc = vs.Physics(v=0.95), vs.Discretisation(grid=12, degree=4)
+    coarse = vs.Discretisation(grid=16, degree=4)
+    shapes = [Shape.spheroid(0.95, grid=12, degree=4), Shape.spheroid(0.9, grid=12, degree=4)]
+    point = codim2.CurvePoint(x=np.arange(5.0), p=np.array([0.1, 7.5]),
+                              eigenvalues=np.array([0.0, -1.0]), v=np.ones(3), w=np.ones(3),
+                              kind="fold", omega=0.0, residual=1e-10, converged=True,
+                              iterations=3, tests={}, other_unstable=False, refused=None)
+    calls = []
+
+    def search(ctx):
+        calls.append(1)
+        ctx.stable.append((1.1, 7.0, disc, shapes[0]))
+        ctx.stable.append((1.2, 7.2, coarse, shapes[1]))
+        return point
+
+    def context(memo, stable):
+        return SimpleNamespace(eq=SimpleNamespace(memo=memo), stable=list(stable),
+                               say=lambda d: None)
+
+    before = (0.5, 6.0, disc, shapes[1])
+    first = context(curve_memo(tmp_path / "m", physics, disc), [before])
+    _kept(first, "first loss", lambda: search(first), 1.0, 7.0)
+    again = context(curve_memo(tmp_path / "m", physics, disc), [before])
+    replayed = _kept(again, "first loss", lambda: search(again), 1.0, 7.0)
+    assert len(calls) == 1 and np.array_equal(replayed.p, point.p)
+    assert [(c, lam, d) for c, lam, d, _ in again.stable] == [(c, lam, d) for c, lam, d, _ in
+                                                              first.stable]  # fmt: skip
+    for (*_, a), (*_, b) in zip(again.stable, first.stable, strict=True):
+        assert isinstance(a, Shape) and np.array_equal(a.coefficients, b.coefficients)
+        assert a.grid.n_theta == b.grid.n_theta

@@ -68,7 +68,7 @@ from vesicle.bifurcation.critical import (
 from vesicle.bifurcation.neutral import NeutralCurve, NeutralPoint, curve_inputs
 from vesicle.bifurcation.steady_codim2 import SteadyEquations, locate_type_change
 from vesicle.geometry.diagnostics import diagnose
-from vesicle.geometry.surface import ShapeError
+from vesicle.geometry.surface import Shape, ShapeError
 from vesicle.io.memo import EvaluationMemo
 from vesicle.model.parameters import Discretisation, Physics
 from vesicle.model.settings import (
@@ -608,9 +608,11 @@ def _kept(ctx: _Context, name: str, compute, chi: float, lam0: float | None = No
     ``name``, ``chi`` and ``lam0`` to 6 digits (the start lambda comes from the curve points so
     far, which a replay reproduces to about 1e-10).  A search that raises is not kept (run
     again on resume); a point that did not converge is kept and replayed as such.  A replayed
-    point reports no evaluations (none were made), and the stable states the search would have
-    kept for later starts (:func:`_keep_stable`) are not replayed: a later search may start
-    from another state, and its lookups then miss (computed, correct, only slower)."""
+    point reports no evaluations (none were made).  The stable states the search kept for later
+    starts (:func:`_keep_stable`) are kept with it and put back on replay, so that a later
+    search starts where it would have: without them fig7's resumed v = 0.85 curve at N = 8
+    started its Hopf search at chi = 1.47 from lambda = 1, where Newton diverged (2026-12-07;
+    records written before then have none, and replay as before)."""
     memo = getattr(ctx.eq, "memo", None)
     if memo is None:
         return compute()
@@ -618,17 +620,28 @@ def _kept(ctx: _Context, name: str, compute, chi: float, lam0: float | None = No
     found = memo.load_record(name, inputs)
     if found is not None:
         arrays, meta = found
+        for i, entry in enumerate(meta.get("stable", [])):
+            disc = Discretisation.from_dict(entry["discretisation"])
+            shape = Shape(arrays[f"stable{i}"], int(entry["n_theta"]))
+            ctx.stable.append((float(entry["chi"]), float(entry["lam"]), disc, shape))
+        del ctx.stable[:-KEPT_STABLE]
         ctx.say({"chi": chi, "replayed": name, "lam": float(arrays["p"][1])})
         return codim2.CurvePoint(x=arrays["x"], p=arrays["p"], eigenvalues=arrays["eigenvalues"],
                                  v=arrays["v"], w=arrays["w"],
                                  **{k: meta[k] for k in _POINT_META})  # fmt: skip
+    known = {id(entry) for entry in ctx.stable}
     point = compute()
     if point is not None:
+        stable = [e for e in ctx.stable if id(e) not in known]
         memo.save_record(name, inputs,
                          {"x": point.x, "p": point.p, "eigenvalues": point.eigenvalues,
-                          "v": point.v, "w": point.w},
-                         {k: dict(point.tests) if k == "tests" else getattr(point, k)
-                          for k in _POINT_META})  # fmt: skip
+                          "v": point.v, "w": point.w,
+                          **{f"stable{i}": e[3].coefficients for i, e in enumerate(stable)}},
+                         {**{k: dict(point.tests) if k == "tests" else getattr(point, k)
+                             for k in _POINT_META},
+                          "stable": [{"chi": c, "lam": lam, "discretisation": d.to_dict(),
+                                      "n_theta": shape.grid.n_theta}
+                                     for c, lam, d, shape in stable]})  # fmt: skip
     return point
 
 
