@@ -645,3 +645,29 @@ def test_with_verbose_the_workers_progress_reaches_the_command(caplog):
     assert pid != os.getpid()
     assert any(r.name == "vesicle.test_forwarding" and "a point of the curve" in r.getMessage()
                for r in caplog.records)  # fmt: skip
+
+
+def test_a_branch_that_ends_at_a_located_fold_is_done_and_one_stopped_short_is_not():
+    """The sweep's completeness rule for branches (``tasks._branch_incomplete``), on the
+    result dicts ``vesicle branch --json`` writes.  The first is the quick report's Figure 14
+    branch at chi = 0.2 (N = 4, 12x24, 2026-12-07): natural continuation stopped between
+    7.4834 and 7.48389 and the fold was located at 7.48362 by pseudo-arclength; before this
+    rule the sweep recorded it as failed and the item with it.  A fold only estimated, a
+    located fold far from the stop (the step failed for another reason) and a stop with no
+    fold are not done."""
+    from vesicle.workflows.tasks import _branch_incomplete
+
+    def result(folds, between=(7.4834, 7.48389)):
+        return {"parameter": "lam", "stopped": "no steady state found beyond lam = 7.4834",
+                "stopped_between": list(between),
+                "special_points": [{"type": "saddle-node", "lam": lam, "omega_R": 0.0,
+                                    "located": located} for lam, located in folds]}  # fmt: skip
+
+    assert _branch_incomplete({"parameter": "lam", "stopped": None}) is None
+    assert _branch_incomplete(result([(7.4833984375, True), (7.483620415443056, True)])) is None
+    assert _branch_incomplete(result([(7.48362, False)])) is not None  # an estimate
+    assert _branch_incomplete(result([(6.9, True)])) is not None  # behind the stop
+    assert _branch_incomplete(result([(7.6, True)])) is not None  # far beyond the failed step
+    assert _branch_incomplete(result([])) is not None
+    # continued downwards (a branch in decreasing lam): the fold lies below the last state
+    assert _branch_incomplete(result([(2.9995, True)], between=(3.0, 2.999))) is None

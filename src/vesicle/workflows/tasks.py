@@ -443,10 +443,34 @@ class Task:
 
 
 def _branch_incomplete(result: dict) -> str | None:
-    """A branch that stopped before its last value (a fold, a failed step) is not done."""
+    """A branch that stopped before its last value is not done, unless it ends at a located
+    fold: the values beyond it lie on no state of the branch (the TT branch of Figure 14 at
+    chi = 0.2 folds at lam = 7.48 at N = 4, inside its lam = 1 ... 9), so what was asked for is
+    all there is.  A fold estimated, or a stop short of a located fold (a failed step), is not
+    done."""
     if not result.get("stopped"):
         return None
+    if _ends_at_fold(result):
+        return None
     return f"the branch stopped before its last value: {result['stopped']}"
+
+
+def _ends_at_fold(result: dict) -> bool:
+    """Whether the branch's stop (``stopped_between``: its last state and the value it could
+    not reach) is at a located fold: one lying beyond the last state, towards that value, no
+    farther than one more step of the same size."""
+    between = result.get("stopped_between")
+    if not between:
+        return False
+    last, target = (float(x) for x in between)
+    name = result.get("parameter", "lam")
+    width = abs(target - last)
+    for s in result.get("special_points", []):
+        if s.get("type") in ("saddle-node", "fold") and s.get("located") and name in s:
+            beyond = (float(s[name]) - last) * np.sign(target - last)
+            if -1e-9 * max(1.0, abs(last)) <= beyond <= 2.0 * width + 1e-12:
+                return True
+    return False
 
 
 def _neutral_incomplete(result: dict) -> str | None:
