@@ -551,3 +551,29 @@ def test_map_then_runs_each_second_call_after_its_parent_on_a_scheduler():
     starts = [(x, t) for what, x, t in _EVENTS if what == "started"]
     assert len(ended) == 3 and len(starts) == 3
     assert all(t >= ended[x] for x, t in starts)  # x: the second call's parent's argument
+
+
+def _flaky_item(folder: Path, quick: bool, options: dict) -> dict:
+    """Counts its calls in ``folder/calls``; fails (a point of its sweep not finished) on the
+    first, finishes on the second."""
+    calls = folder / "calls"
+    n = int(calls.read_text()) + 1 if calls.exists() else 1
+    calls.write_text(str(n))
+    out = {"figures": [], "tables": [], "comparisons": []}
+    if n == 1:
+        out["failures"] = ["a sweep: 1 point(s) failed"]
+    return out
+
+
+def test_a_failed_item_is_computed_again_and_a_done_one_is_not(tmp_path):
+    """The report resumes what did not finish: an item recorded "failed" (points of its sweeps
+    failed: the quick report's Figure 14 on 2026-12-07) is computed again by the next call
+    without --redo; once "done", a further call leaves it alone."""
+    items = [Item("flaky", "Figure 98", "fails once", _flaky_item)]
+    build_report(tmp_path, quick=True, items=items)
+    record = json.loads((tmp_path / "flaky" / "item.json").read_text())
+    assert record["status"] == "failed"
+    build_report(tmp_path, quick=True, items=items)
+    assert json.loads((tmp_path / "flaky" / "item.json").read_text())["status"] == "done"
+    build_report(tmp_path, quick=True, items=items)
+    assert (tmp_path / "flaky" / "calls").read_text() == "2"

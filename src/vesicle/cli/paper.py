@@ -20,7 +20,8 @@ from vesicle.workflows.paper import ITEMS, build_report
 @click.option("--only", default=None, metavar="ITEM,...",
               help="Compute only these items (table1, fig2, fig4, ...; see --list).")  # fmt: skip
 @click.option("--list", "show_list", is_flag=True, help="List the items and exit.")
-@click.option("--redo", is_flag=True, help="Recompute items already done in --out.")
+@click.option("--redo", is_flag=True,
+              help="Recompute items already done in --out (failed ones are always retried).")
 @click.option("--redraw", is_flag=True,
               help="Draw the items done in --out again from their stored data (figures, "
                    "tables, comparisons); computes nothing for them.")  # fmt: skip

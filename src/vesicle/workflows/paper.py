@@ -1286,7 +1286,7 @@ def build_report(
     options = dict(options or {})
     todo = [item for item in items if item.compute is not None
             and (not only or item.key in only)
-            and (redo or not (outdir / item.key / "item.json").exists())]  # fmt: skip
+            and (redo or not _item_done(outdir, item.key))]  # fmt: skip
     if concurrent is None:
         concurrent = len(todo) > 1
     if progress is not None:
@@ -1305,6 +1305,18 @@ def build_report(
         redraw_items(outdir, [i for i in items if i.key not in computed
                               and (not only or i.key in only)], quick, progress)  # fmt: skip
     return write_index(outdir, items, quick)
+
+
+def _item_done(outdir: Path, key: str) -> bool:
+    """Whether ``outdir`` holds the item ``key`` finished: its ``item.json`` says "done".  One
+    that "failed" (points of its sweeps failed) or raised ("error") is computed again by the
+    next call; its stores keep what it finished, and only the rest is computed (the quick
+    report's Figure 14 on 2026-12-07: one failed branch, retried)."""
+    record = Path(outdir) / key / "item.json"
+    try:
+        return json.loads(record.read_text()).get("status") == "done"
+    except (OSError, ValueError):
+        return False
 
 
 def redraw_items(outdir: Path, items: list[Item], quick: bool,
