@@ -1203,7 +1203,11 @@ ITEMS: list[Item] = [
          # 31 min for 0.90, and v = 0.85 unresolved at that degree; from chi = 0.5: 5.4 and about
          # 18 min, chi = 0.5 being a fold at v = 0.90; the fold itself is fig8's)
          _neutral_item([0.98, 0.95, 0.90, 0.85], "neutral", quick_chi=(1.0, 3.0, 10.0),
-                       quick_vs=[0.95, 0.90]), cost=100),
+                       quick_vs=[0.95, 0.90]), cost=100,
+         full_cost=(14936, "2026-12-06/07: the wall times of the calls that computed its four "
+                           "curves, one after another (v = 0.98 2116 s beside ten items; "
+                           "v = 0.90 and 0.95 side by side 5191 s; v = 0.85 2400 s, then 5229 s "
+                           "resumed, beside two or three other jobs)")),
     Item("fig8", "Figure 8", "omega along the chi = 0.2 branch towards the fold", _fig8,
          cost=120, full_cost=(1188, "2026-12-06, vesicle paper --only fig8, one worker; 4751 s "
                               "on 2026-12-07 with 10 other items on the 2 workers")),

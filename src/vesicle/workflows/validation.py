@@ -75,7 +75,9 @@ def items_markdown(full: dict, full_dir: str | Path, page_dir: str | Path) -> li
     lines = ["### The full report's items (generated)", "",
              "Every item the full report has finished (the others are not computed yet), with "
              "its resolution and its wall time on the 2-core machine (while the other items "
-             "of the same call ran beside it), and its figures.", "",
+             "of the same call ran beside it; an item resumed after a stop counts only the "
+             "call that finished it, and docs/paper.md gives the calls' sum), and its "
+             "figures.", "",
              "| item | what | status | resolution | wall time | computed | figures | compared "
              "| reproduce |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for key, item in full.items():
