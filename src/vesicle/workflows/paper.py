@@ -1215,7 +1215,9 @@ ITEMS: list[Item] = [
          _fig9, cost=200, full_cost=(1847, "2026-12-07, vesicle paper --only fig9 --workers 1 "
                                      "beside the stability items' 2 workers and a test run")),
     Item("fig11", "Figures 11, 15", "psi(t), D-psi orbits and S_xz(t) in TR and TU",
-         _study_item("orbits", "stress-time"), cost=500),
+         _study_item("orbits", "stress-time"), cost=500,
+         full_cost=(2522, "2026-12-07, runs at N = 8 on 16x32, --only fig11,fig14 --workers 1 "
+                          "beside two or three other jobs on the 2 cores")),
     Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
          "on Figure 7's neutral curves)",
          _fig12, uses=("fig7", "fig8"), cost=680),
