@@ -610,9 +610,10 @@ def _kept(ctx: _Context, name: str, compute, chi: float, lam0: float | None = No
     again on resume); a point that did not converge is kept and replayed as such.  A replayed
     point reports no evaluations (none were made).  The stable states the search kept for later
     starts (:func:`_keep_stable`) are kept with it and put back on replay, so that a later
-    search starts where it would have: without them fig7's resumed v = 0.85 curve at N = 8
-    started its Hopf search at chi = 1.47 from lambda = 1, where Newton diverged (2026-12-07;
-    records written before then have none, and replay as before)."""
+    search starts where it would have: without them fig7's resumed v = 0.85 curve at N = 8 had
+    no state near chi = 1.47 to start its next search from (Newton diverged from lambda = 1 at
+    N = 4 and from the fold curve's shape at N = 8; 2026-12-07).  Records written before then
+    have none, and replay as before."""
     memo = getattr(ctx.eq, "memo", None)
     if memo is None:
         return compute()
@@ -629,10 +630,10 @@ def _kept(ctx: _Context, name: str, compute, chi: float, lam0: float | None = No
         return codim2.CurvePoint(x=arrays["x"], p=arrays["p"], eigenvalues=arrays["eigenvalues"],
                                  v=arrays["v"], w=arrays["w"],
                                  **{k: meta[k] for k in _POINT_META})  # fmt: skip
-    known = {id(entry) for entry in ctx.stable}
+    before = list(ctx.stable)  # held, so that no new entry can be mistaken for one of them
     point = compute()
     if point is not None:
-        stable = [e for e in ctx.stable if id(e) not in known]
+        stable = [e for e in ctx.stable if not any(e is b for b in before)]
         memo.save_record(name, inputs,
                          {"x": point.x, "p": point.p, "eigenvalues": point.eigenvalues,
                           "v": point.v, "w": point.w,
