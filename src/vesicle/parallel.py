@@ -161,15 +161,31 @@ def _log_level(name: str, level: int) -> None:
     logging.getLogger(name).setLevel(level)
 
 
+#: Whether :func:`forward_worker_logs` forwards in this process (see
+#: :func:`set_worker_log_forwarding`).
+_FORWARDING = {"enabled": True}
+
+
+def set_worker_log_forwarding(enabled: bool) -> None:
+    """Whether this process's clients forward the workers' records (:func:`forward_worker_logs`).
+
+    Every client that forwards receives every worker's records: the scheduler sends them to all
+    its subscribers.  A process that shares a cluster with others that drive their own work
+    (the items of the concurrent ``vesicle paper``) turns it off, and the process that owns the
+    cluster forwards once for all; else each record showed once per item, named by each."""
+    _FORWARDING["enabled"] = bool(enabled)
+
+
 def forward_worker_logs(client, name: str = "vesicle") -> bool:
     """With ``name``'s logger at INFO or below in this process (``vesicle --verbose``), the
     workers' records of it at that level are sent here and logged as this process's are: the
     progress of a neutral curve or a run on a worker (each curve point, each search step) shows
     on the command's stderr.  At the default level nothing changes (a worker's warnings reach
-    its stderr, which a LocalCluster's workers share with the command).  Workers that join
-    later keep their default level.  Whether it forwards."""
+    its stderr, which a LocalCluster's workers share with the command), nor where this process
+    has turned forwarding off (:func:`set_worker_log_forwarding`).  Workers that join later
+    keep their default level.  Whether it forwards."""
     level = logging.getLogger(name).getEffectiveLevel()
-    if level > logging.INFO:
+    if level > logging.INFO or not _FORWARDING["enabled"]:
         return False
     try:
         client.run(_log_level, name, level)

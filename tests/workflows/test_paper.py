@@ -578,3 +578,44 @@ def test_a_failed_item_is_computed_again_and_a_done_one_is_not(tmp_path):
     assert json.loads((tmp_path / "flaky" / "item.json").read_text())["status"] == "done"
     build_report(tmp_path, quick=True, items=items)
     assert (tmp_path / "flaky" / "calls").read_text() == "2"
+
+
+def _record_on_worker(message: str) -> int:
+    import logging
+    import os
+
+    logging.getLogger("vesicle.test_forwarding").info(message)
+    return os.getpid()
+
+
+def _item_logging_on_a_worker(folder: Path, quick: bool, options: dict) -> dict:
+    """An item whose one task logs, on a worker of the report's cluster, a record naming it."""
+    from vesicle.workflows.paper import _map
+
+    _map(options, _record_on_worker, [(f"a record of item {folder.name}",)])
+    return {"figures": [], "tables": [], "parameters": {}, "comparisons": []}
+
+
+def test_with_verbose_each_worker_record_shows_once_in_a_concurrent_report(tmp_path, caplog,
+                                                                           capfd):
+    """vesicle --verbose paper with several items on one cluster: a worker's record reaches
+    the command once, not once per item process labelled with every item's name (the
+    scheduler sends forwarded records to every client that asked; on 2026-12-07 each record
+    of the full report showed three times, as fig12:, fig14: and fig17:)."""
+    import logging
+    import time
+
+    items = [Item(k, f"Figure {n}", "logs on a worker", _item_logging_on_a_worker)
+             for k, n in (("one", 97), ("two", 98))]  # fmt: skip
+    with caplog.at_level(logging.INFO):  # the items' processes get this level too
+        build_report(tmp_path, quick=True, items=items, options={"workers": 1})
+        for _ in range(50):  # a forwarded record travels on its own message
+            if sum("a record of item" in r.getMessage() for r in caplog.records) >= 2:
+                break
+            time.sleep(0.1)
+    err = capfd.readouterr().err
+    for key in ("one", "two"):
+        message = f"a record of item {key}"
+        here = sum(message in r.getMessage() for r in caplog.records)
+        in_items = sum(message in line for line in err.splitlines())
+        assert (here, in_items) == (1, 0), (key, here, in_items)

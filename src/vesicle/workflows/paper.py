@@ -42,7 +42,7 @@ from vesicle.model.published import (  # the paper's stated values: one home
     PAPER_TYPE_CHANGE,
     TABLE1_PAPER,
 )
-from vesicle.parallel import forward_worker_logs
+from vesicle.parallel import forward_worker_logs, set_worker_log_forwarding
 from vesicle.workflows.config import toml_text
 
 __all__ = ["ITEMS", "Item", "build_report", "write_index"]
@@ -1464,6 +1464,8 @@ def _child_main(conn, payload: bytes, folder: str, quick: bool, options: dict,
 
     logging.basicConfig(level=level, format=f"{Path(folder).name}: %(name)s: %(message)s")
     logging.getLogger("distributed").setLevel(logging.WARNING)
+    # the workers' records reach the driver once (_compute_concurrently), not once per item
+    set_worker_log_forwarding(False)
     conn.send(_run_compute(cloudpickle.loads(payload), Path(folder), quick, options))
     conn.close()
 
@@ -1494,7 +1496,13 @@ def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: 
     context = multiprocessing.get_context("spawn")
     level = logging.getLogger().getEffectiveLevel()
     children = {}  # the reading end of each item's pipe -> (process, item)
+    forwarding = None  # with --verbose: the workers' records, forwarded here once for all items
     try:
+        if logging.getLogger("vesicle").getEffectiveLevel() <= logging.INFO:
+            from distributed import Client
+
+            forwarding = Client(options["scheduler"])
+            forward_worker_logs(forwarding)
         for item in sorted(todo, key=lambda i: -i.cost):
             (outdir / item.key).mkdir(exist_ok=True)
             recv, send = context.Pipe(duplex=False)
@@ -1538,6 +1546,8 @@ def _compute_concurrently(outdir: Path, todo: list[Item], quick: bool, options: 
             if process.is_alive():
                 process.terminate()
             process.join(10)
+        if forwarding is not None:
+            forwarding.close()
         if cluster is not None:
             close_cluster(cluster)
 
