@@ -619,3 +619,30 @@ def test_with_verbose_each_worker_record_shows_once_in_a_concurrent_report(tmp_p
         here = sum(message in r.getMessage() for r in caplog.records)
         in_items = sum(message in line for line in err.splitlines())
         assert (here, in_items) == (1, 0), (key, here, in_items)
+
+
+def test_a_committed_item_without_its_store_still_gives_its_neutral_curves(tmp_path):
+    """fig12 draws its runs on fig7's curves and fig22 draws beside them; the full report is
+    committed without its stores (neutral.h5 is not in the repository), so the curves come from
+    fig7's table.  Checked against the same item's record, written from the store when fig7 ran
+    (2026-12-07, N = 8 on 32x64): lambda_c at chi = 1, v = 0.95, is 8.45263754302846."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from vesicle.plots.phase import plot_neutral
+    from vesicle.workflows.paper import _item_curves
+
+    committed = Path(__file__).parents[2] / "docs" / "validation" / "full" / "fig7"
+    folder = tmp_path / "fig7"
+    folder.mkdir()
+    shutil.copy(committed / "neutral.csv", folder)
+    curves = _item_curves(folder, {8})
+    assert sorted(c["v"] for c in curves) == [0.85, 0.9, 0.95, 0.98]
+    assert all(len(c["points"]) == 13 and (c["degree"], c["grid"]) == (8, 32) for c in curves)
+    record = json.loads((committed / "item.json").read_text())
+    ours = {c["quantity"]: c["ours"] for c in record["comparisons"]}
+    (one,) = [p for c in curves if c["v"] == 0.95 for p in c["points"] if p["chi"] == 1.0]
+    assert one["lambda_c"] == ours["lambda_c (v = 0.95, chi = 1)"] and one["located"] is True
+    assert {p["bifurcation"] for c in curves for p in c["points"]} == {"hopf", "saddle-node"}
+    assert _item_curves(folder, {4}) == [] and _item_curves(tmp_path / "absent") == []
+    assert all(p.is_file() for p in plot_neutral(curves, tmp_path / "drawn"))

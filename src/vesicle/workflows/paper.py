@@ -366,19 +366,41 @@ def _curves(path: Path, degrees: set[int] | None = None) -> list[dict]:
             and (degrees is None or r["result"]["degree"] in degrees)]  # fmt: skip
 
 
+def _item_curves(folder: Path, degrees: set[int] | None = None) -> list[dict]:
+    """The neutral curves of the finished item in ``folder``: from its store ``neutral.h5``, or
+    where the stores are not there (the full report's items are committed without them) from
+    its table ``neutral.csv``, one curve per (v, degree, grid) with its points as the table
+    gives them (no change of type: the table holds the points only).  ``degrees``: as
+    :func:`_curves`."""
+    if (folder / "neutral.h5").exists():
+        return _curves(folder / "neutral.h5", degrees)
+    if not (folder / "neutral.csv").exists():
+        return []
+    numbers = ("v", "chi", "lambda_c", "omega_R", "psi", "D")
+    curves: dict[tuple, dict] = {}
+    with open(folder / "neutral.csv", newline="") as f:
+        for row in csv.DictReader(f):
+            key = (float(row["v"]), int(row["degree"]), int(row["grid"]))
+            point = {k: float(row[k]) for k in numbers if row.get(k) not in (None, "")}
+            point["bifurcation"] = row["bifurcation"]
+            point["located"] = row.get("located", "True") == "True"
+            curves.setdefault(key, {"v": key[0], "degree": key[1], "grid": key[2],
+                                    "points": []})["points"].append(point)  # fmt: skip
+    return [c for c in curves.values() if degrees is None or c["degree"] in degrees]
+
+
 def _regimes_on_curves(folder: Path, item: str, stores: list[str]) -> list[str]:
     """The runs of the sweep ``stores`` on the phase diagrams of ``item``'s neutral curves at
     the runs' degree (none when that item has not run)."""
     from vesicle.plots.phase import plot_neutral
     from vesicle.workflows.sweep import SweepStore, runs_from_store
 
-    other = folder.parent / item / "neutral.h5"
     runs = [r for path in stores for r in runs_from_store(path)]
     degrees = {tomllib.loads(SweepStore.read(path).config_text or "")
                .get("discretisation", {}).get("degree", 8) for path in stores}  # fmt: skip
-    if not other.exists() or not runs:
+    if not runs:
         return []
-    curves = _curves(other, degrees)
+    curves = _item_curves(folder.parent / item, degrees)
     if not curves:
         return []
     return [str(p) for p in plot_neutral(curves, folder / "phase", runs=runs)]
@@ -457,9 +479,8 @@ def _neutral_item(
                               priority=options.get("priority", 0))  # fmt: skip
         curves = _curves(store.path)
         drawn = list(curves)
-        other = folder.parent / beside / "neutral.h5" if beside else None
-        if other is not None and other.exists():
-            drawn += _curves(other, {degree})
+        if beside:
+            drawn += _item_curves(folder.parent / beside, {degree})
         figures = [str(p) for p in plot_neutral(drawn, folder)]
         rows = [{"v": c["v"], "degree": c["degree"], "grid": c["grid"], **p}
                 for c in curves for p in c["points"]]  # fmt: skip
