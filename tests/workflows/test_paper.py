@@ -646,3 +646,13 @@ def test_a_committed_item_without_its_store_still_gives_its_neutral_curves(tmp_p
     assert {p["bifurcation"] for c in curves for p in c["points"]} == {"hopf", "saddle-node"}
     assert _item_curves(folder, {4}) == [] and _item_curves(tmp_path / "absent") == []
     assert all(p.is_file() for p in plot_neutral(curves, tmp_path / "drawn"))
+
+
+def test_the_resolution_column_names_table1s_degrees_and_grid():
+    """Table 1's record has degrees, not a degree: its resolution column was empty."""
+    from vesicle.workflows.paper import _resolution_text
+
+    assert _resolution_text({"parameters": {"degrees": [2, 4, 14], "grid": 32}}) == (
+        "N = 2, 4, 14, 32×64")
+    assert _resolution_text({"parameters": {"degree": 8, "grid": 16}}) == "N = 8, 16×32"
+    assert _resolution_text({"parameters": {}}) == ""

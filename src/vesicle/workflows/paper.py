@@ -1207,7 +1207,11 @@ _RESUMED = "2026-12-07, with 6 other items on 2 workers and a measurement run be
 #: which the concurrent report submits their work (the longest first).
 ITEMS: list[Item] = [
     Item("table1", "Table 1", "most unstable mode against the shape degree N", _table1,
-         cost=30),
+         cost=30,
+         full_cost=(3047, "2026-12-07, the 14 rows' own seconds, one after another: 2213 s in "
+                          "the call that computed 10 of them (--only table1 --workers 1, "
+                          "beside two or three other jobs), 833 s for v = 0.95, N = 2 ... 8 in "
+                          "earlier calls")),
     Item("fig2", "Figures 2, 3, 10", "steady TT state, E_l spectra, most unstable modes",
          _fig_spectrum, cost=10, full_cost=(1057, _RESUMED)),
     Item("fig4", "Figure 4", "TT inclination and deformation against chi",
@@ -1588,12 +1592,16 @@ def _record_report(outdir: Path, todo: list[Item], quick: bool, concurrent: bool
 
 def _resolution_text(record: dict) -> str:
     """An item's resolution as its record states it: each study's (``resolutions``), or the
-    degree and grid of its parameters; "" where the record states neither."""
+    degree (or degrees, Table 1's) and grid of its parameters; "" where the record states
+    neither."""
     if record.get("resolutions"):
         return "; ".join(f"{k}: {v}" for k, v in record["resolutions"].items())
     p = record.get("parameters") or {}
     if isinstance(p, dict) and p.get("degree") is not None and p.get("grid") is not None:
         return f"N = {p['degree']}, {p['grid']}×{2 * int(p['grid'])}"
+    if isinstance(p, dict) and p.get("degrees") and p.get("grid") is not None:  # Table 1
+        degrees = ", ".join(str(n) for n in p["degrees"])
+        return f"N = {degrees}, {p['grid']}×{2 * int(p['grid'])}"
     return ""
 
 
