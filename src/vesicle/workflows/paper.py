@@ -833,11 +833,13 @@ def _fig9(folder: Path, quick: bool, options: dict) -> dict:
 
 #: SPEC §13 and the paper's Fig. 23, 24: tilted starts at v = 0.95, chi = 4 as (lam, tilt in
 #: degrees[, t_end]): lam = 11 at 0.2 pi ... 0.5 pi, lam = 10.5, 10 and 9 at 0.3 pi.  lam = 9
-#: runs to t = 120: at N = 4 on 12x24 its orbit is still a transient over the last half of a run
-#: to 30, 60 or 90, and looks like a figure-8 about x (period 5.43) over 60 ... 120, but its a_y
-#: swing decays from 0.50 to 0.28 over those 60: not settled (2026-12-07, the orbit stop's test).
+#: runs to t = 240: its figure-8 about x is a transient.  At N = 4 on 12x24 its a_y swing decays
+#: from 0.50 to 0.28 over t = 60 ... 120; at N = 6 and N = 8 on 16x32 (2026-12-07) the swing is
+#: 0.33 over 100 ... 120 and 0.022-0.023 over 220 ... 240 (both N within 5 %): the vesicle goes
+#: back to the shear plane, where lam = 9, chi = 4 swings (TR), and a run to t = 120 shows only
+#: the decaying figure-8 (docs/notes/dynamics-measurements.md, *Tilted starts at N = 8*).
 TILTED = [(11.0, 36.0), (11.0, 54.0), (11.0, 72.0), (11.0, 90.0), (10.5, 54.0), (10.0, 54.0),
-          (9.0, 54.0, 120.0)]  # fmt: skip
+          (9.0, 54.0, 240.0)]  # fmt: skip
 #: ``--quick``: lam = 11 to t = 30 and lam = 9 to t = 120, at 0.3 pi (at N = 4 on 12x24 with
 #: one ring thread: about 85 and 340 s; to t = 30, lam = 11 shows the precession about y,
 #: period 4.98, over its last half).
@@ -856,10 +858,10 @@ TILTED_TU_QUICK: list[tuple[float, float, float]] = []
 #: tilted run from its shape at each phase of :data:`PHASES` (fractions of its last psi period,
 #: counted from the start of that period), beside the tilted-spheroid starts of :data:`TILTED`.
 #: Each stops once its orbit has settled (:data:`TILTED_ORBITS`), else at its t_end (the
-#: item's t_end where none is given).  Both go to t = 120: at N = 6 (16x32, 2026-12-07) neither
-#: lam = 9's three phases nor lam = 11's phase 0 had settled by t = 60, and lam = 9's spheroid
-#: start needs 60-120 at N = 4 to show its class (a t_end grown so resumes the runs cut there).
-SNAPSHOT = [(11.0, 54.0, 120.0), (9.0, 54.0, 120.0)]
+#: item's t_end where none is given).  lam = 11 goes to t = 120: at N = 6 (16x32, 2026-12-07)
+#: its phase 0 had not settled by t = 60 (it returned to TU by 91.4); lam = 9 to 240, as its
+#: spheroid start in :data:`TILTED` (a t_end grown so resumes the runs cut short).
+SNAPSHOT = [(11.0, 54.0, 120.0), (9.0, 54.0, 240.0)]
 #: ``--quick``: none yet (an in-plane run and two phase runs at lam = 11 would add to the quick
 #: report's measured cost by an amount not measured; ``options["snapshot"]`` asks for them).
 SNAPSHOT_QUICK: list[tuple[float, float]] = []
