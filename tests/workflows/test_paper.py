@@ -369,7 +369,8 @@ def test_each_item_says_its_expected_cost_and_then_its_wall_time(tmp_path):
 
     items = {i.key: i for i in ITEMS}
     assert expected_cost(items["fig8"], quick=False).startswith("about 20 min (2026-12-06")
-    assert expected_cost(items["fig12"], quick=False) == "not measured at the full resolution yet"
+    assert expected_cost(items["fig14"], quick=False) == "not measured at the full resolution yet"
+    assert expected_cost(items["fig12"], quick=False).startswith("about 108 min (2026-12-07")
     assert expected_cost(items["fig11"], quick=False).startswith("about 42 min (2026-12-07")
     assert expected_cost(items["fig23"], quick=True).startswith("about 430 CPU s (measured")
     said = []

@@ -1247,7 +1247,11 @@ ITEMS: list[Item] = [
                           "beside two or three other jobs on the 2 cores")),
     Item("fig12", "Figure 12", "periods of TR and TU against lambda (and the runs' regimes "
          "on Figure 7's neutral curves)",
-         _fig12, uses=("fig7", "fig8"), cost=680),
+         _fig12, uses=("fig7", "fig8"), cost=680,
+         full_cost=(6481, "2026-12-07, runs at N = 8 on 16x32, --only fig12,fig14,fig17 "
+                          "--workers 1 (fig12's points first, by priority), beside two or "
+                          "three other jobs on the 2 cores; its lam = 9, chi = 6 run near the "
+                          "Hopf point took 26 min (saved every 0.1 / chi to t = 60)")),
     Item("fig14", "Figure 14", "S_xz, N1, N2 against lambda (TT branches; TR and TU runs "
          "averaged over whole periods)", _study_item("stress-lambda-runs", "stress-lambda"),
          cost=220),
