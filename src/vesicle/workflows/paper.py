@@ -1260,7 +1260,11 @@ ITEMS: list[Item] = [
          cost=80,
          full_cost=(3411, _TOGETHER)),
     Item("fig17", "Figures 17, 20", "stress decomposition and the equivalent ellipsoid",
-         _study_item("stress-split"), cost=30),
+         _study_item("stress-split"), cost=30,
+         full_cost=(1169, "2026-12-07, at most: its chi = 6 branch 449 s (--only fig17 "
+                          "--workers 1, beside the test suite), its chi = 1 branch in the call "
+                          "before, within that call's first 12 min (beside two other items and "
+                          "two other jobs)")),
     Item("fig18", "Figures 18, 19, 21", "the equivalent ellipsoid's stress maps",
          _study_item("tt-shape-lambda", "ellipsoid-maps"), cost=60,
          full_cost=(1007, _RESUMED)),
