@@ -505,3 +505,42 @@ def test_a_large_sustained_swing_is_tr_not_a_damped_approach():
     r = classify_regime(np.array(data["t"]), np.array(data["psi"]))
     assert r.name == "TR" and "sustained" in r.detail
     assert r.period == pytest.approx(1.4976, abs=1e-3)
+
+
+def _slow_then_flip(t, period=194.0, flip=4.0):
+    """psi of an orbit that turns by a half turn per period: slowly by 0.8 rad over all but
+    ``flip`` of it, then the rest of the half turn within ``flip`` (as the run at v = 0.95,
+    chi = 0.2, lam = 7.7, N = 8 does: docs/notes/dynamics-measurements.md)."""
+    k, s = np.divmod(t, period)
+    slow = period - flip
+    turned = np.where(s < slow, 0.8 * s / slow, 0.8 + (np.pi - 0.8) * (s - slow) / flip)
+    angle = 1.2 - k * np.pi - turned
+    return -((0.5 * np.pi - angle) % np.pi - 0.5 * np.pi)  # into (-pi/2, pi/2]
+
+
+def test_a_flip_between_two_saves_is_reported_as_unresolved():
+    """The same orbit (a half turn every 194, most of it slow, the rest within 4) saved every
+    0.1 and every 2.0.  Saved every 0.1 the classifier sees the half turns: TU, period 194,
+    nothing unresolved (psi moves by at most 0.06 rad between saves).  Saved every 2.0 the
+    flip turns psi by about 1.2 rad a save, which shows as jumps of about 2 rad, below the
+    half-turn threshold 0.75 pi (as the lam = 7.7 run's 1.65-2.03): the label is TR, and the
+    detail says that the saves do not resolve the motion; the period is still the orbit's.
+    The expected numbers are the construction's own (period 194; the largest move between
+    saves of 0.1 is (pi - 0.8) 0.1 / 4)."""
+    from vesicle.geometry.diagnostics import UNRESOLVED_CHANGE, unresolved_change
+
+    fine = np.arange(0.0, 1500.0 + 1e-9, 0.1)
+    tu = classify_regime(fine, _slow_then_flip(fine))
+    assert tu.name == "TU" and tu.period == pytest.approx(194.0, rel=1e-3)
+    assert unresolved_change(_slow_then_flip(fine)) == pytest.approx((np.pi - 0.8) / 40, rel=1e-6)
+    assert "do not resolve" not in tu.detail
+    coarse = np.arange(0.0, 1500.0 + 1e-9, 2.0)
+    psi = _slow_then_flip(coarse)
+    assert unresolved_change(psi) > UNRESOLVED_CHANGE
+    assert 1.5 < np.max(np.abs(np.diff(psi))) < 0.75 * np.pi  # no jump counts as a half turn
+    r = classify_regime(coarse, psi)
+    assert r.name == "TR" and "do not resolve" in r.detail
+    assert r.period == pytest.approx(194.0, rel=1e-3)
+    # a resolved TR keeps its detail as it was
+    tr = classify_regime(fine, 0.4 * np.cos(2 * np.pi * fine / 2.5))
+    assert tr.name == "TR" and "do not resolve" not in tr.detail

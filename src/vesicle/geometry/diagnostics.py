@@ -36,6 +36,7 @@ __all__ = [
     "settled_periods",
     "summarize",
     "tilt_growth",
+    "unresolved_change",
 ]
 
 log = logging.getLogger(__name__)
@@ -207,6 +208,37 @@ def half_turn_times(t: np.ndarray, psi: np.ndarray) -> np.ndarray:
     return np.array(out)
 
 
+#: Largest change of psi between consecutive saves, after taking out the half turns (psi is
+#: wrapped to (-pi/2, pi/2]), beyond which the saves do not resolve the motion
+#: (:func:`unresolved_change`).  A resolved TR or TU moves psi by a few hundredths of a radian
+#: between saves.
+UNRESOLVED_CHANGE = 0.25 * np.pi
+
+
+def unresolved_change(psi: np.ndarray) -> float:
+    """Largest change of ``psi`` between consecutive samples, each taken modulo a half turn
+    (into [-pi/2, pi/2)): 0.03 where the saves resolve the motion, up to pi/2 where they do
+    not.  A flip shorter than one save interval shows as a jump that is neither small nor a
+    half turn: v = 0.95, chi = 0.2, lam = 7.7, N = 8 saved every 2.0 jumps by 1.65-2.03 rad,
+    which :func:`classify_regime`'s 0.75 pi does not count as a half turn (its D falls to
+    0.01-0.03 in the flip; docs/notes/dynamics-measurements.md)."""
+    d = np.diff(np.asarray(psi, float))
+    if d.size == 0:
+        return 0.0
+    return float(np.max(np.abs((d + 0.5 * np.pi) % np.pi - 0.5 * np.pi)))
+
+
+def _with_resolution(regime: Regime, psi: np.ndarray) -> Regime:
+    """``regime`` with a warning in its detail where the saves do not resolve psi's motion."""
+    change = unresolved_change(psi)
+    if change <= UNRESOLVED_CHANGE:
+        return regime
+    detail = (f"{regime.detail}; psi moves by up to {change:.2f} rad between saves (half "
+              "turns taken out): the saves do not resolve that motion, so TR or TU is not "
+              "decided by them (save more often)")  # fmt: skip
+    return Regime(regime.name, regime.period, regime.minima, detail)
+
+
 @dataclass(frozen=True)
 class Regime:
     """Result of :func:`classify_regime`."""
@@ -224,6 +256,18 @@ def classify_regime(
     tail: float = 0.5,
     steady_tol: float = 1e-3,
 ) -> Regime:
+    """Classify a run from its inclination series (SPEC §10): see :func:`_classify`.  Where psi
+    moves between two saves by more than :data:`UNRESOLVED_CHANGE` besides its half turns, the
+    label stands and its detail says that the saves do not resolve the motion."""
+    regime = _classify(t, psi, axes, tail, steady_tol)
+    if regime.name in ("TR", "TU"):
+        t = np.asarray(t, float)
+        last = t >= t[0] + (1 - tail) * (t[-1] - t[0])
+        return _with_resolution(regime, np.asarray(psi, float)[last])
+    return regime
+
+
+def _classify(t, psi, axes, tail, steady_tol) -> Regime:
     """Classify a run from its inclination series (SPEC §10).
 
     TU when psi jumps by about pi (it runs through +-pi/2); out-of-plane when the longest axis
