@@ -544,3 +544,24 @@ def test_a_flip_between_two_saves_is_reported_as_unresolved():
     # a resolved TR keeps its detail as it was
     tr = classify_regime(fine, 0.4 * np.cos(2 * np.pi * fine / 2.5))
     assert tr.name == "TR" and "do not resolve" not in tr.detail
+
+
+def test_a_tu_period_counts_the_half_turns_whose_jump_the_saves_make_small():
+    """A half turn every 193.3 whose flip takes 3.0, saved every 2.0: the saves catch each
+    flip at a different phase, so some show as jumps of more than 0.75 pi (the run is TU) and
+    some as smaller ones.  The period must count every half turn: before, the passages were
+    taken at the large jumps only, an interval with a missed one counted double, and the mean
+    came out too long (as the full report's run at chi = 0.2, lam = 8, N = 8: 152.17 instead
+    of 126.81; docs/notes/dynamics-measurements.md).  The expected period is the
+    construction's own (193.3)."""
+    from vesicle.geometry.diagnostics import half_turn_times, settled_periods
+
+    t = np.arange(0.0, 1500.0 + 1e-9, 2.0)
+    psi = _slow_then_flip(t, period=193.3, flip=3.0)
+    jumps = np.abs(np.diff(psi))
+    assert np.any(jumps > 0.75 * np.pi) and np.sum((jumps > 1.0) & (jumps < 0.75 * np.pi)) >= 1
+    times = half_turn_times(t, psi)
+    assert times.size == 7  # one passage every 193.3 within 1500 (the first near t = 194)
+    r = classify_regime(t, psi)
+    assert r.name == "TU" and r.period == pytest.approx(193.3, rel=2e-3)
+    assert settled_periods(t, psi) >= 3

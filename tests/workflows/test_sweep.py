@@ -671,3 +671,39 @@ def test_a_branch_that_ends_at_a_located_fold_is_done_and_one_stopped_short_is_n
     assert _branch_incomplete(result([])) is not None
     # continued downwards (a branch in decreasing lam): the fold lies below the last state
     assert _branch_incomplete(result([(2.9995, True)], between=(3.0, 2.999))) is None
+
+
+def test_finished_runs_are_analysed_again_from_their_files(tmp_path, caplog):
+    """A drawn-again study shows this version's analysis of runs already computed
+    (`reanalyse_runs`, called by `run_studies(compute=False)`, i.e. `vesicle paper --redraw`):
+    a stored result that differs from the analysis of its run file is replaced by it, without
+    stepping, and marked `reanalysed`; a point whose file is gone keeps its stored result, and
+    a file holding another run than its point's is not read as that point's."""
+    from vesicle.workflows.sweep import reanalyse_runs
+
+    body = ('[sweep]\ntask = "run"\nout = "r.h5"\n[grid]\nlam = [2.0, 3.0, 4.0]\n[run]\n'
+            "t_end = 0.06\nsave_every = 0.03\nsave_fields = false\n" + SMALL)  # fmt: skip
+    config = read_sweep_config(write(tmp_path, body))
+    store = run_sweep(config, workers=1)
+    assert store.status(config)["done"] == 3
+    two, three, four = config.points
+    runs = tmp_path / "r_runs"
+    computed = json.loads(json.dumps(store.records[two.key]["result"]))
+    for point in config.points:  # results as an older analysis might have left them
+        store.records[point.key]["result"]["period"] = 123.0
+    (runs / f"{three.key}.h5").unlink()
+    (runs / f"{four.key}.h5").unlink()
+    two_file = runs / f"{two.key}.h5"
+    store.write()
+    assert reanalyse_runs(config, store) == 1
+    again = SweepStore.read(config.out)
+    assert again.records[two.key]["result"] == computed
+    assert "reanalysed" in again.records[two.key]
+    assert again.records[three.key]["result"]["period"] == 123.0  # no file: kept
+    assert reanalyse_runs(config, again) == 0  # nothing left to change
+    # a file of another point's run under this point's name is not taken for it
+    two_file.rename(runs / f"{three.key}.h5")
+    again.records[three.key]["result"]["period"] = 123.0
+    with caplog.at_level("WARNING", logger="vesicle.workflows.tasks"):
+        assert reanalyse_runs(config, again) == 0
+    assert "holds another run" in caplog.text

@@ -46,7 +46,13 @@ from vesicle.model.published import PAPER_LABEL, PAPER_LAMBDA_C_CHI1, PAPER_PERI
 from vesicle.model.theory import danker_misbah_tt_rheology, excess_area, misbah_tt_inclination
 from vesicle.workflows.config import ConfigError, toml_text
 from vesicle.workflows.costs import study_cost
-from vesicle.workflows.sweep import SweepConfig, SweepStore, read_sweep_config, run_sweeps
+from vesicle.workflows.sweep import (
+    SweepConfig,
+    SweepStore,
+    read_sweep_config,
+    reanalyse_runs,
+    run_sweeps,
+)
 
 __all__ = [
     "THEORIES",
@@ -200,8 +206,11 @@ def run_studies(
     if compute:
         stores = run_sweeps(configs + extra, workers=workers, scheduler=scheduler,
                             progress=progress, priority=priority)  # fmt: skip
-    else:
+    else:  # drawn again: the finished runs' results from this version's analysis of their
+        # files, where the files are there (no stepping)
         stores = [SweepStore.open(config) for config in configs + extra]
+        for config, store in zip(configs, stores, strict=False):
+            reanalyse_runs(config, store)
     out = []
     for (study, _), config, store in zip(loaded, configs, stores, strict=False):
         figure, table = plot_study(store, study, folder)

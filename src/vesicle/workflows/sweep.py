@@ -469,6 +469,41 @@ def run_sweeps(
     return stores
 
 
+def reanalyse_runs(config: SweepConfig, store: SweepStore) -> int:
+    """Compute the results of a ``run`` sweep's finished points again from their run files
+    (:func:`vesicle.workflows.tasks.reanalysed_run`: no stepping), so that a figure drawn
+    again shows this version's analysis of the trajectories already computed; each record
+    changed gets ``reanalysed`` (the version and the time).  Points without a run file keep
+    their stored result.  Writes the store once if anything changed; returns how many
+    results changed."""
+    from vesicle import __version__
+    from vesicle.workflows.tasks import reanalysed_run
+
+    if config.task != "run":
+        return 0
+    changed = 0
+    for point in config.points:
+        record = store.records.get(point.key)
+        if not record or record.get("status") != "done":
+            continue
+        result = reanalysed_run(point, config.discretisation, config.options, config.settings)
+        if result is None:
+            continue
+        result = plain(result, nonfinite_as_none=True)
+        old = {k: v for k, v in (record.get("result") or {}).items() if k != "vesicle_version"}
+        if {k: v for k, v in result.items() if k != "vesicle_version"} == old:
+            continue
+        store.records[point.key] = {**record, "result": result, "reanalysed": {
+            "vesicle_version": __version__,
+            "at": datetime.now(UTC).isoformat(timespec="seconds")}}  # fmt: skip
+        changed += 1
+    if changed:
+        store.write()
+        log.info("sweep %s: %d finished run(s) analysed again from their files", config.path,
+                 changed)  # fmt: skip
+    return changed
+
+
 def runs_from_store(path: str | Path) -> list[dict]:
     """The finished points of a ``task = "run"`` sweep store as ``{"v", "chi", "lam",
     "regime", "period"}`` (points whose analysis found no regime are kept as "undetermined")."""

@@ -399,9 +399,40 @@ def _run_settings(physics: Physics, options: dict, settings: dict) -> dict:
     return run
 
 
+def _run_params(physics: Physics, disc: Discretisation, options: dict, settings: dict):
+    return RunParameters(physics, disc, settings.get("solver"),
+                         **_run_settings(physics, options, settings))  # fmt: skip
+
+
+def _run_result(physics: Physics, disc: Discretisation, run) -> dict:
+    return stamped({"physics": physics.to_dict(),
+            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
+            "chi": physics.chi, "bq": physics.bq, **summarize(run)})  # fmt: skip
+
+
+def reanalysed_run(physics: Physics, disc: Discretisation, options: dict,
+                   settings: dict) -> dict | None:  # fmt: skip
+    """A ``run`` point's result computed again from its run file (``settings["runs_dir"]``),
+    without stepping: the analysis of this version (regime, period, means) of the trajectory
+    that was computed.  None when the point keeps no run file, or when the file is not this
+    point's run (other parameters than the point's, besides the stop criteria)."""
+    if not settings.get("runs_dir"):
+        return None
+    path = Path(settings["runs_dir"]) / f"{physics.key}.h5"
+    if not path.exists():
+        return None
+    run = read_run(path)
+    params = _run_params(physics, disc, options, settings)
+    stops = {k: getattr(params, k) for k in STOP_KEYS}
+    if load_parameters(run).replace(**stops) != params:
+        log.warning("run file %s holds another run than point %s: not re-analysed", path,
+                    physics.key)  # fmt: skip
+        return None
+    return _run_result(physics, disc, run)
+
+
 def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) -> dict:
-    params = RunParameters(physics, disc, settings.get("solver"),
-                           **_run_settings(physics, options, settings))  # fmt: skip
+    params = _run_params(physics, disc, options, settings)
     path, resume = None, None
     if settings.get("runs_dir"):  # each point's run file, checkpointed: a point cut short by a
         # crash, Ctrl-C or a lost worker resumes from its last checkpoint when tried again
@@ -425,9 +456,7 @@ def _run(physics: Physics, disc: Discretisation, options: dict, settings: dict) 
                 else:
                     path.unlink()
     run = simulate(params, out=path, resume=resume)
-    return stamped({"physics": physics.to_dict(),
-            "discretisation": disc.to_dict(), "v": physics.v, "lam": physics.lam,
-            "chi": physics.chi, "bq": physics.bq, **summarize(run)})  # fmt: skip
+    return _run_result(physics, disc, run)
 
 
 @dataclass(frozen=True)
