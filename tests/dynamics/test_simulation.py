@@ -564,4 +564,5 @@ def test_a_tu_period_counts_the_half_turns_whose_jump_the_saves_make_small():
     assert times.size == 7  # one passage every 193.3 within 1500 (the first near t = 194)
     r = classify_regime(t, psi)
     assert r.name == "TU" and r.period == pytest.approx(193.3, rel=2e-3)
+    assert "half turns of psi" in r.detail  # not all of them were jumps
     assert settled_periods(t, psi) >= 3

@@ -296,7 +296,11 @@ def _classify(t, psi, axes, tail, steady_tol) -> Regime:
     if jumps.size:
         times = half_turn_times(t, psi)
         period = float(np.mean(np.diff(times))) if times.size > 1 else None
-        return Regime("TU", period, times, f"{jumps.size} half-turn jumps of psi")
+        detail = f"{jumps.size} half-turn jumps of psi"
+        if times.size > jumps.size:  # passages whose flip fell between two saves
+            detail = (f"{times.size} half turns of psi, {jumps.size} of them seen as jumps of "
+                      "more than 0.75 pi")  # fmt: skip
+        return Regime("TU", period, times, detail)
     p = psi[last]
     minima = local_minima(p)
     spread = float(np.ptp(p))
