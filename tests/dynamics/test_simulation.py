@@ -541,6 +541,14 @@ def test_a_flip_between_two_saves_is_reported_as_unresolved():
     r = classify_regime(coarse, psi)
     assert r.name == "TR" and "do not resolve" in r.detail
     assert r.period == pytest.approx(194.0, rel=1e-3)
+    # a swing of 1 rad damped x0.78 over the last half, period 10, saved every 2.0: TT, but
+    # moving by up to 0.9 rad between saves, so said to be unresolved; saved every 0.1, not
+    damped = lambda t: np.exp(-t / 400) * np.cos(2 * np.pi * t / 10)  # noqa: E731
+    sparse = np.arange(0.0, 200.0 + 1e-9, 2.0)
+    tt = classify_regime(sparse, damped(sparse))
+    assert tt.name == "TT" and "do not resolve" in tt.detail
+    tt = classify_regime(fine[fine <= 200], damped(fine[fine <= 200]))
+    assert tt.name == "TT" and "do not resolve" not in tt.detail
     # a resolved TR keeps its detail as it was
     tr = classify_regime(fine, 0.4 * np.cos(2 * np.pi * fine / 2.5))
     assert tr.name == "TR" and "do not resolve" not in tr.detail
