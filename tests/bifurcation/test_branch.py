@@ -336,3 +336,23 @@ def test_a_complex_leading_pair_does_not_stop_early(monkeypatch):
         for value in (7.57, 7.59, 7.61, 7.63):
             tracer.step_to(value, early=True)
     assert not stop.value.early and sum(x > fold for x in tried) > vb.EARLY_FAILURES
+
+
+@pytest.mark.slow
+def test_halved_steps_next_to_a_fold_take_the_tangent_not_the_long_secant():
+    """v = 0.95, chi = 0.2, N = 8 on 16 x 32, lam = 6.5 ... 8 in steps of 0.5 (Figure 14's TT
+    branch at chi = 0.2): the step 7.5 -> 8 fails past the fold and is halved.  The halved
+    steps used the secant through 7.0 and 7.5, which misses the branch's bend by more than the
+    short step itself, so the jump guard refused 7.5625 and 7.53125 on the same branch
+    ("moved 3.83e-03 ... more than the step itself (2.93e-03)"), the branch stopped at 7.5 and
+    its fold was only estimated (the full report's fig14 failed this way on 32 x 64,
+    2026-12-08).  With the tangent predictor on such steps it reaches 7.5625 and locates the
+    fold.  Expected: the fold of the same branch located on 32 x 64 by fig8 (7.5642850,
+    docs/validation/full/fig8/item.json) and on 16 x 32 with the time stepping's multipliers
+    (7.56413); about 2 min."""
+    d = vs.Discretisation(16, 8)
+    b = branch(vs.Physics(v=0.95, chi=0.2), d, "lam", [6.5, 7.0, 7.5, 8.0])
+    folds = [s for s in b.special_points if s.kind in ("saddle-node", "fold")]
+    assert folds and folds[0].located
+    assert folds[0].value == pytest.approx(7.5643, abs=1e-3)
+    assert max(p.physics.lam for p in b.points) > 7.55
