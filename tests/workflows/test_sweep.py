@@ -707,3 +707,8 @@ def test_finished_runs_are_analysed_again_from_their_files(tmp_path, caplog):
     with caplog.at_level("WARNING", logger="vesicle.workflows.tasks"):
         assert reanalyse_runs(config, again) == 0
     assert "holds another run" in caplog.text
+    # an unreadable file is not a result either: the redraw goes on without it
+    (runs / f"{three.key}.h5").write_bytes(b"not a run file")
+    with caplog.at_level("WARNING", logger="vesicle.workflows.tasks"):
+        assert reanalyse_runs(config, again) == 0
+    assert "unreadable" in caplog.text

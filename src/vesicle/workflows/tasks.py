@@ -421,7 +421,11 @@ def reanalysed_run(physics: Physics, disc: Discretisation, options: dict,
     path = Path(settings["runs_dir"]) / f"{physics.key}.h5"
     if not path.exists():
         return None
-    run = read_run(path)
+    try:
+        run = read_run(path)
+    except (OSError, ValueError, KeyError) as err:  # as _run: such a file is not this run
+        log.warning("run file %s unreadable (%s): not re-analysed", path, err)
+        return None
     params = _run_params(physics, disc, options, settings)
     stops = {k: getattr(params, k) for k in STOP_KEYS}
     if load_parameters(run).replace(**stops) != params:
